@@ -1,0 +1,68 @@
+// skidsteer.tire: spring-damper stick-slip tire law for skid-steer robots.
+//
+// The law is Ch. 4 of S. Mafrica, "Advance Modeling of a Skid-Steering Mobile
+// Robot for Remote Telepresence", MSc thesis, 2012 (the "thesis" below); see
+// plugin/tire/README.md for every attribute, its default and its source.
+//
+// The functions here are pure: they take the wheel kinematics and the
+// per-wheel state and return forces or the next state.  tire.c wires them to
+// MuJoCo; python/skidsteer/tire_reference.py is the readable reference that
+// the tests hold this code to.
+
+#ifndef SKIDSTEER_PLUGIN_TIRE_TIRE_H_
+#define SKIDSTEER_PLUGIN_TIRE_TIRE_H_
+
+#include <mujoco/mujoco.h>
+
+// Parameters of one tire law instance (SI units).
+typedef struct {
+  mjtNum mu_static;        // mu_s_max, static friction coefficient (eq. 4.10)
+  mjtNum mu_kinetic;       // mu_k_max, kinetic friction coefficient (eq. 4.10)
+  mjtNum stiffness_z;      // K_z, vertical tire stiffness, N/m (eq. 4.15)
+  mjtNum damping_z;        // D_z, vertical tire damping, N s/m (eq. 4.15)
+  mjtNum stiffness_y;      // K_y, lateral tire stiffness, N/m (eq. 4.9)
+  mjtNum damping_y;        // D_y, lateral tire damping, N s/m (eq. 4.9)
+  mjtNum stiffness_x;      // K_x = series(tread, belt), N/m (eq. 4.13, 4.14)
+  mjtNum damping_x;        // D_x = series(tread, belt), N s/m (eq. 4.13, 4.14)
+  mjtNum contact_mass;     // m_t, contact-point mass, kg (eq. 4.9)
+  mjtNum lambda_max;       // slip at which friction saturates (eq. 4.12a)
+} tireParams;
+
+// Per-direction contact-point state, stored in plugin_state.
+enum {
+  TIRE_DEFLECTION = 0,     // s: tire deflection, integral of (u - v_c), m
+  TIRE_VELOCITY,           // v_c: contact-point velocity over the floor, m/s
+  TIRE_STUCK,              // 1: contact point sticks (static friction), 0: slips
+  TIRE_NSTATE_DIR
+};
+enum { TIRE_DIR_X = 0, TIRE_DIR_Y = 1, TIRE_NDIR = 2 };
+#define TIRE_NSTATE_WHEEL (TIRE_NSTATE_DIR * TIRE_NDIR)
+
+// What the law needs from the wheel kinematics at one instant.
+typedef struct {
+  mjtNum compression;       // delta > 0: tire compressed against the floor, m
+  mjtNum compression_rate;  // d(delta)/dt, m/s
+  mjtNum slip_x;            // u_x = Delta v_x = v_x - r*omega, rim velocity along the
+                            //   rolling direction (eq. 2.7), m/s
+  mjtNum slip_y;            // u_y = v_y, rim velocity across the wheel, m/s
+  mjtNum rolling_speed;     // r*omega, m/s
+} tireKinematics;
+
+// Normal force N >= 0 (eq. 4.15, clamped so that the wheel can lift).
+mjtNum tire_normal_force(const tireParams* p, const tireKinematics* k);
+
+// Slip-dependent friction factors mu_x, mu_y in [0, 1] (eq. 4.12a/b, saturated).
+void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum mu[2]);
+
+// Forces on the wheel in the contact frame [N, f_x, f_y] from the state at the
+// start of the step (eq. 4.9, 4.13, 4.15).  state: TIRE_NSTATE_WHEEL numbers.
+void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* state,
+                 mjtNum force[3]);
+
+// Advance one wheel's contact-point state by h seconds, implicitly.
+void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state);
+
+// Reset one wheel's state: no deflection, contact point at rest and sticking.
+void tire_reset_state(mjtNum* state);
+
+#endif  // SKIDSTEER_PLUGIN_TIRE_TIRE_H_

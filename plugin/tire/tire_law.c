@@ -1,0 +1,144 @@
+// The tire law of the thesis, Ch. 4, per wheel and per direction.
+// python/skidsteer/tire_reference.py is the same law written for reading; the
+// tests require both to agree to ~1e-12 relative on random inputs.
+
+#include "tire.h"
+
+#include <math.h>
+
+mjtNum tire_normal_force(const tireParams* p, const tireKinematics* k) {
+  if (k->compression <= 0) {
+    return 0;  // wheel off the floor
+  }
+  // eq. 4.15 with the integral of v_z replaced by the measured compression,
+  // clamped at zero: the floor pushes, it never pulls (Sec. 4.3).
+  mjtNum normal = p->stiffness_z * k->compression + p->damping_z * k->compression_rate;
+  return normal > 0 ? normal : 0;
+}
+
+
+void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum mu[2]) {
+  mjtNum rolling = fabs(k->rolling_speed);
+  mjtNum slip_x = fabs(k->slip_x);
+  mjtNum slip_y = fabs(k->slip_y);
+
+  // |lambda| of eq. 2.7, saturated at 1 as in Sec. 2.1.1; a wheel that does not
+  // turn slides with |lambda| = 1 (the thesis's NaN/inf converter, Sec. 6.1).
+  mjtNum lambda = rolling > 0 ? fmin(1, slip_x / rolling) : 1;
+
+  if (lambda < p->lambda_max) {
+    // eq. 4.12a: mu_x = k_s |lambda| with k_s = 1/lambda_max, and eq. 4.12b
+    // simplified as in Sec. 4.1: mu_y = |v_y| / (r |omega| lambda_max).
+    // lambda < lambda_max <= 1 implies rolling > 0 here.
+    mu[TIRE_DIR_X] = lambda / p->lambda_max;
+    mu[TIRE_DIR_Y] = fmin(1, slip_y / (rolling * p->lambda_max));
+  } else {
+    // eq. 4.12a saturated, eq. 4.12b: mu_y = tan(theta) = |v_y| / |Delta v_x|,
+    // saturated at 1 (Sec. 4.1); no longitudinal slip at all means full grip.
+    mu[TIRE_DIR_X] = 1;
+    mu[TIRE_DIR_Y] = slip_x > 0 ? fmin(1, slip_y / slip_x) : 1;
+  }
+}
+
+
+// Spring-damper force that the tire puts on the wheel along one direction
+// (first line of eq. 4.9 / 4.13): f = -D (u - v_c) - K s.
+static mjtNum direction_force(mjtNum stiffness, mjtNum damping, mjtNum drive,
+                              const mjtNum* st) {
+  return -damping * (drive - st[TIRE_VELOCITY]) - stiffness * st[TIRE_DEFLECTION];
+}
+
+
+void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* state,
+                 mjtNum force[3]) {
+  mjtNum normal = tire_normal_force(p, k);
+  force[0] = normal;
+  if (normal <= 0) {
+    // no normal force, no friction: the tire carries no tangential load
+    force[1] = force[2] = 0;
+    return;
+  }
+  force[1] = direction_force(p->stiffness_x, p->damping_x, k->slip_x,
+                             state + TIRE_DIR_X * TIRE_NSTATE_DIR);
+  force[2] = direction_force(p->stiffness_y, p->damping_y, k->slip_y,
+                             state + TIRE_DIR_Y * TIRE_NSTATE_DIR);
+}
+
+
+// One implicit (backward Euler) step of the contact point along one direction.
+//
+// The contact point, mass m_t, is tied to the wheel rim by the spring K and
+// damper D and rubs on the floor (eq. 4.2-4.9).  With s the deflection and v
+// its velocity over the floor, driven by the rim velocity u:
+//   ds/dt = u - v,   m_t dv/dt = K s + D (u - v) - F_k sign(v)   (slipping)
+//   v = 0 while |K s + D u| <= F_s                                 (sticking)
+// Sticking ends when the spring-damper force exceeds static friction F_s
+// (eq. 4.9, first switching condition).  Slipping ends when the contact point
+// stops, which the implicit Coulomb step detects exactly: the kinetic-friction
+// impulse over the step is at least the momentum it would otherwise have.
+// With m_t small that is the moment |K s + D u| falls to F_k (eq. 4.8), the
+// relay condition of eq. 6.4; unlike eq. 6.4 the kinetic-friction term stays
+// in, so a wheel in sustained slip feels kinetic friction.
+static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
+                              mjtNum static_limit, mjtNum kinetic_limit,
+                              mjtNum drive, mjtNum h, mjtNum* st) {
+  mjtNum deflection = st[TIRE_DEFLECTION];
+  mjtNum velocity = st[TIRE_VELOCITY];
+
+  if (st[TIRE_STUCK] > 0.5) {
+    mjtNum deflection_next = deflection + h * drive;
+    mjtNum holding = stiffness * deflection_next + damping * drive;
+    if (fabs(holding) <= static_limit) {
+      st[TIRE_DEFLECTION] = deflection_next;
+      st[TIRE_VELOCITY] = 0;
+      return;
+    }
+    velocity = 0;  // breaks away from rest
+  }
+
+  // backward Euler for (s, v), friction as an impulse that cannot reverse v
+  mjtNum a = mass + h * damping + h * h * stiffness;
+  mjtNum velocity_free = (mass * velocity
+                          + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a;
+  mjtNum friction_dv = h * kinetic_limit / a;
+  mjtNum velocity_next;
+  if (fabs(velocity_free) > friction_dv) {
+    velocity_next = velocity_free - copysign(friction_dv, velocity_free);
+    st[TIRE_STUCK] = 0;
+  } else {
+    velocity_next = 0;
+    st[TIRE_STUCK] = 1;
+  }
+  st[TIRE_VELOCITY] = velocity_next;
+  st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
+}
+
+
+void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state) {
+  mjtNum normal = tire_normal_force(p, k);
+  if (normal <= 0) {
+    tire_reset_state(state);  // unloaded tire relaxes; it lands undeflected
+    return;
+  }
+  mjtNum mu[2];
+  tire_friction_factors(p, k, mu);
+  const mjtNum stiffness[2] = {p->stiffness_x, p->stiffness_y};
+  const mjtNum damping[2] = {p->damping_x, p->damping_y};
+  const mjtNum drive[2] = {k->slip_x, k->slip_y};
+  for (int dir = 0; dir < TIRE_NDIR; dir++) {
+    // eq. 4.10: static and kinetic limits scale with the slip factor
+    advance_direction(stiffness[dir], damping[dir], p->contact_mass,
+                      p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * normal,
+                      drive[dir], h, state + dir * TIRE_NSTATE_DIR);
+  }
+}
+
+
+void tire_reset_state(mjtNum* state) {
+  for (int dir = 0; dir < TIRE_NDIR; dir++) {
+    mjtNum* st = state + dir * TIRE_NSTATE_DIR;
+    st[TIRE_DEFLECTION] = 0;
+    st[TIRE_VELOCITY] = 0;
+    st[TIRE_STUCK] = 1;
+  }
+}

@@ -1,0 +1,37 @@
+"""Writing runs in the measured-data layout (shared/spec/measured-data.md), atomically."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CSV_HEADER = "time_s,ax,ay,az"
+
+
+def write_atomically(path: Path, write) -> Path:
+    """Calls write(tmp_path), then renames tmp_path to path: never a half file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_accelerometer_csv(path: Path, time_s: np.ndarray, accel: np.ndarray) -> Path:
+    """CSV run file: time_s and the cube's accelerations in m/s^2, gravity included."""
+    data = np.column_stack([time_s, accel])
+
+    def write(tmp: Path) -> None:
+        np.savetxt(tmp, data, delimiter=",", header=CSV_HEADER, comments="",
+                   fmt=["%.6f", "%.9g", "%.9g", "%.9g"])
+
+    return write_atomically(path, write)

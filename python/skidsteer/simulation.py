@@ -1,0 +1,144 @@
+"""Simulating the robot: settling on its tires, open-loop wheel commands, swivel in place.
+
+Runs step in C through mujoco.rollout (no per-step Python); the state handed
+between phases is mjSTATE_FULLPHYSICS, which includes the tire plugin's state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+
+from skidsteer.tire_reference import find_wheels
+
+FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+@dataclasses.dataclass(frozen=True)
+class DriveGeometry:
+    """What the feed-forward controller of Sec. 6.1 needs, read from the model."""
+
+    wheel_radius: float  # r, m
+    half_track: float  # c, m (Table 5.1: 0.18)
+    left_actuator: int
+    right_actuator: int
+
+    @classmethod
+    def from_model(cls, m: mujoco.MjModel) -> "DriveGeometry":
+        wheels = find_wheels(m)
+        if not wheels:
+            raise ValueError("model has no wheels using the skidsteer.tire plugin")
+        radius = float(np.mean([w.radius for w in wheels]))
+        half_track = float(np.mean([abs(m.body_pos[w.body][1]) for w in wheels]))
+        ids = {}
+        for side in ("left", "right"):
+            ids[side] = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{side}_motor")
+            if ids[side] < 0:
+                raise ValueError(f"model has no actuator named '{side}_motor'")
+        return cls(radius, half_track, ids["left"], ids["right"])
+
+    def wheel_speeds(self, v_mps: float, omega_rad_s: float) -> tuple[float, float]:
+        """eq. 2.11 inverted without slip: the thesis's feed-forward (Sec. 6.1)."""
+        c, r = self.half_track, self.wheel_radius
+        return (v_mps - c * omega_rad_s) / r, (v_mps + c * omega_rad_s) / r
+
+    def control(self, m: mujoco.MjModel, v_mps: float, omega_rad_s: float) -> np.ndarray:
+        ctrl = np.zeros(m.nu)
+        ctrl[self.left_actuator], ctrl[self.right_actuator] = self.wheel_speeds(v_mps, omega_rad_s)
+        return ctrl
+
+
+def get_state(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+    state = np.empty(mujoco.mj_stateSize(m, FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, FULLPHYSICS)
+    return state
+
+
+def set_state(m: mujoco.MjModel, d: mujoco.MjData, state: np.ndarray) -> None:
+    mujoco.mj_setState(m, d, state, FULLPHYSICS)
+    mujoco.mj_forward(m, d)
+
+
+def rollout(m: mujoco.MjModel, d: mujoco.MjData, control: np.ndarray, nstep: int,
+            initial_state: np.ndarray | None = None):
+    """(states, sensordata) of nstep steps under control (nu,) or (nstep, nu).
+
+    Leaves d at the final state.
+    """
+    if initial_state is None:
+        initial_state = get_state(m, d)
+    control = np.asarray(control, dtype=float)
+    if control.ndim == 1:
+        control = np.broadcast_to(control, (nstep, m.nu))
+    states, sensors = mujoco.rollout.rollout(m, d, initial_state, control[None], nstep=nstep)
+    set_state(m, d, states[0, -1])
+    return states[0], sensors[0]
+
+
+def settle(m: mujoco.MjModel, d: mujoco.MjData, duration_s: float = 2.0) -> np.ndarray:
+    """Lets the robot come to rest on its tires with the motors holding zero speed."""
+    nstep = int(round(duration_s / m.opt.timestep))
+    if nstep > 0:
+        rollout(m, d, np.zeros(m.nu), nstep)
+    return get_state(m, d)
+
+
+def sensor_slice(m: mujoco.MjModel, name: str) -> slice:
+    s = m.sensor(name)
+    return slice(int(s.adr[0]), int(s.adr[0] + s.dim[0]))
+
+
+@dataclasses.dataclass
+class Run:
+    """A simulated run, sampled every time step."""
+
+    time_s: np.ndarray  # (n,)
+    accel: np.ndarray  # (n, 3) m/s^2, cube axes, specific force (gravity included)
+    gyro: np.ndarray  # (n, 3) rad/s, cube axes
+    wheel_speed: np.ndarray  # (n, nwheel) rad/s
+    tire_forces: np.ndarray  # (n, nwheel, 3) [N, f_x, f_y] in N
+    command: np.ndarray  # (nu,) the constant control
+
+    @property
+    def sample_rate_hz(self) -> float:
+        return float(1 / (self.time_s[1] - self.time_s[0]))
+
+    def mean_yaw_rate_deg_s(self) -> float:
+        return float(np.rad2deg(self.gyro[:, 2].mean()))
+
+    def wheel_lift_fraction(self) -> float:
+        """Fraction of samples in which at least one wheel carries no load."""
+        return float((self.tire_forces[:, :, 0] <= 0).any(axis=1).mean())
+
+
+def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_s: float,
+                  settle_s: float = 2.0, d: mujoco.MjData | None = None) -> Run:
+    """Settles the robot, then drives it open loop at (v_x*, omega_z*) for duration_s."""
+    d = d if d is not None else mujoco.MjData(m)
+    settle(m, d, settle_s)
+    drive = DriveGeometry.from_model(m)
+    ctrl = drive.control(m, v_mps, np.deg2rad(omega_deg_s))
+    t0 = d.time
+    nstep = int(round(duration_s / m.opt.timestep))
+    states, sensors = rollout(m, d, ctrl, nstep)
+    wheels = [sensor_slice(m, f"wheel{i}_speed") for i in range(1, 5)
+              if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, f"wheel{i}_speed") >= 0]
+    tires = sensors[:, sensor_slice(m, "tire_forces")]
+    return Run(
+        time_s=states[:, 0] - t0,  # state starts with time in FULLPHYSICS
+        accel=sensors[:, sensor_slice(m, "accelerometer")],
+        gyro=sensors[:, sensor_slice(m, "gyro")],
+        wheel_speed=np.column_stack([sensors[:, s] for s in wheels]) if wheels else
+        np.zeros((nstep, 0)),
+        tire_forces=tires.reshape(nstep, -1, 3),
+        command=ctrl,
+    )
+
+
+def swivel(m: mujoco.MjModel, omega_deg_s: float, duration_s: float = 20.0,
+           settle_s: float = 2.0) -> Run:
+    """Swivel in place (v_x* = 0) at omega_z* deg/s, as in Sec. 3.2."""
+    return run_commanded(m, 0.0, omega_deg_s, duration_s, settle_s)
