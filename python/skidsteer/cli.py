@@ -32,10 +32,11 @@ def cmd_swivel(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - started
     out = Path(args.out) if args.out else Path("out") / _thesis_file_name(
         0, args.omega, args.duration, args.config, args.surface)
-    write_accelerometer_csv(out, run.time_s, run.accel)
+    time_s, accel = run.accelerometer_log()
+    write_accelerometer_csv(out, time_s, accel)
 
-    fs = run.sample_rate_hz
-    filtered = signals.lowpass(run.accel, fs)
+    fs = signals.sample_rate(time_s)
+    filtered = signals.lowpass(accel, fs)
     summary = {
         "command": {"v_mps": 0.0, "omega_deg_s": args.omega, "surface": args.surface,
                     "config": args.config, "duration_s": args.duration},
@@ -43,7 +44,7 @@ def cmd_swivel(args: argparse.Namespace) -> int:
         "wheel_lift_fraction": run.wheel_lift_fraction(),
         "amplitude_m_s2": dict(zip("xyz", signals.amplitude(signals.central(filtered)).tolist())),
         "main_peak_hz": dict(zip("xyz", signals.main_peak_hz(filtered, fs).tolist())),
-        "samples": int(len(run.time_s)),
+        "samples": int(len(time_s)),
         "sample_rate_hz": fs,
         "wall_time_s": wall,
         "accelerometer_log": str(out),

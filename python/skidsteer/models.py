@@ -21,14 +21,17 @@ TIRE_ATTRIBUTES: tuple[str, ...] = (
 
 
 def models_dir() -> Path:
-    """models/ of an installed package, else of the source checkout."""
+    """models/ shipped in the package (pip install .), else the source checkout's
+    (pip install -e . and running from the repository)."""
+    marker = BUILDS["extended"]
     installed = importlib.resources.files("skidsteer") / "models"
-    if installed.is_dir():
+    if (installed / marker).is_file():
         return Path(str(installed))
     checkout = Path(__file__).resolve().parents[2] / "models"
-    if checkout.is_dir():
+    if (checkout / marker).is_file():
         return checkout
-    raise FileNotFoundError("skidsteer: no models/ directory found next to the package")
+    raise FileNotFoundError("skidsteer: the models/ directory was not installed with the "
+                            "package; reinstall with `pip install .`")
 
 
 def model_path(build: str = "extended") -> Path:

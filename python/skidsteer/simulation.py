@@ -11,10 +11,12 @@ import dataclasses
 import mujoco
 import mujoco.rollout
 import numpy as np
+from scipy import signal
 
 from skidsteer.tire_reference import find_wheels
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
+LOG_RATE_HZ = 1000.0  # the thesis's accelerometer sample rate (Sec. 3.2)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,6 +93,13 @@ def sensor_slice(m: mujoco.MjModel, name: str) -> slice:
     return slice(int(s.adr[0]), int(s.adr[0] + s.dim[0]))
 
 
+def decimate(x: np.ndarray, factor: int) -> np.ndarray:
+    """Every factor-th sample after a zero-phase anti-aliasing FIR low-pass (axis 0)."""
+    if factor == 1:
+        return x
+    return signal.decimate(x, factor, ftype="fir", axis=0, zero_phase=True)
+
+
 @dataclasses.dataclass
 class Run:
     """A simulated run, sampled every time step."""
@@ -105,6 +114,15 @@ class Run:
     @property
     def sample_rate_hz(self) -> float:
         return float(1 / (self.time_s[1] - self.time_s[0]))
+
+    def accelerometer_log(self, rate_hz: float = LOG_RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
+        """(time_s, accel) at rate_hz, as a logger with an anti-aliasing filter records it."""
+        factor = self.sample_rate_hz / rate_hz
+        if abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
+            raise ValueError(f"log rate {rate_hz} Hz does not divide the simulation rate "
+                             f"{self.sample_rate_hz:g} Hz")
+        factor = int(round(factor))
+        return self.time_s[::factor], decimate(self.accel, factor)
 
     def mean_yaw_rate_deg_s(self) -> float:
         return float(np.rad2deg(self.gyro[:, 2].mean()))

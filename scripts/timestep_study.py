@@ -1,0 +1,153 @@
+"""Largest stable time step and the step at which results converge.
+
+Stability: at each step, 20 s of random wheel commands up to the motors'
+limits must stay finite with no MuJoCo warning, and a 30 deg/s swivel must
+not fall into a numerical limit cycle (accelerometer RMS above 1 g).
+
+Convergence: swivels at 30 and 64 deg/s on concrete (extended build), the
+accelerometer brought to 1 kHz with an anti-aliasing decimation (what a 1 kHz
+logger records), then analysed as Appendix A does (50 Hz low-pass): a_y
+amplitude, RMS in the 0-10, 10-20, 20-50 Hz bands, mean yaw rate, and the
+locked-wheel roll free-response frequency.  A step has converged when, against
+the finest step, the yaw rate is within 1 %, the amplitude within 10 % and
+every band RMS within 10 % or 0.002 m/s^2 (7 % of the total low-passed RMS at
+30 deg/s; the 20-50 Hz residue at the finest step is 0.0027 m/s^2).  Runs at
+the finest step that differ by a 1e-6 rad initial yaw show how chaotic the
+swivel is over 10 s (printed).
+
+Run:  python scripts/timestep_study.py [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import mujoco
+import numpy as np
+from scipy import signal
+
+import skidsteer
+from skidsteer import signals
+from skidsteer.simulation import rollout, run_commanded, sensor_slice, settle
+
+STEPS = [2e-3, 1.5e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5]
+BANDS = [(0, 10), (10, 20), (20, 50)]
+SWIVEL_S = 10.0
+
+
+def to_1khz(x: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
+    factor = int(round(1e-3 / dt))
+    if factor <= 1:
+        return x, 1 / dt
+    return signal.decimate(x, factor, ftype="fir", axis=0, zero_phase=True), 1 / (factor * dt)
+
+
+def unstable_reason(dt: float) -> str | None:
+    m = skidsteer.load_model("extended", "concrete", timestep=dt)
+    d = mujoco.MjData(m)
+    settle(m, d, 0.5)
+    rng = np.random.default_rng(0)
+    nstep = int(20 / dt)
+    hold = max(1, int(0.2 / dt))
+    ctrl = np.repeat(rng.uniform(-11.16, 11.16, (nstep // hold + 1, 2)), hold, axis=0)[:nstep]
+    states, _ = rollout(m, d, ctrl, nstep)
+    if not np.isfinite(states).all() or any(w.number for w in d.warning):
+        return "NaN or MuJoCo warning under random commands"
+    return None
+
+
+def roll_frequency(dt: float) -> float:
+    m = skidsteer.load_model("extended", "concrete", timestep=dt)
+    d = mujoco.MjData(m)
+    settle(m, d, 1.0)
+    quat = np.empty(4)
+    mujoco.mju_axisAngle2Quat(quat, np.array([1.0, 0, 0]), -np.arctan2(2e-3, 0.36))
+    mujoco.mju_mulQuat(d.qpos[3:7], quat, d.qpos[3:7].copy())
+    d.qvel[:] = 0
+    mujoco.mj_forward(m, d)
+    _, sensors = rollout(m, d, np.zeros(m.nu), int(round(2.048 / dt)))
+    ay, fs = to_1khz(sensors[:, sensor_slice(m, "accelerometer")][:, 1], dt)
+    ay = signals.lowpass(ay[:2048], fs, 20.0)  # Sec. 5.2: first 2^11 samples, 20 Hz
+    return float(signals.main_peak_hz(ay[:, None], fs, (1.0, 20.0))[0])
+
+
+def swivel_features(dt: float, yaw0: float = 0.0, omega: float = 30.0) -> dict:
+    m = skidsteer.load_model("extended", "concrete", timestep=dt)
+    d = mujoco.MjData(m)
+    d.qpos[3:7] = [np.cos(yaw0 / 2), 0, 0, np.sin(yaw0 / 2)]
+    started = time.perf_counter()
+    run = run_commanded(m, 0.0, omega, SWIVEL_S, settle_s=1.0, d=d)
+    wall = time.perf_counter() - started
+    accel, fs = to_1khz(run.accel, dt)
+    raw_rms = float(np.sqrt(((accel - accel.mean(0)) ** 2).mean()))
+    low = signals.lowpass(accel, fs)
+    f, p = signal.welch(low[:, 1] - low[:, 1].mean(), fs=fs, nperseg=2048)
+    band_rms = [float(np.sqrt(np.trapezoid(p[(f >= lo) & (f < hi)], f[(f >= lo) & (f < hi)])))
+                for lo, hi in BANDS]
+    return {
+        "wall_s_per_simulated_s": wall / (SWIVEL_S + 1.0),
+        "raw_rms_m_s2": raw_rms,
+        "mean_yaw_rate_deg_s": run.mean_yaw_rate_deg_s(),
+        "ay_amplitude_m_s2": float(signals.amplitude(signals.central(low))[1]),
+        "ay_band_rms_m_s2": band_rms,
+    }
+
+
+def converged(row: dict, ref: dict) -> bool:
+    return (abs(row["mean_yaw_rate_deg_s"] / ref["mean_yaw_rate_deg_s"] - 1) <= 0.01
+            and abs(row["ay_amplitude_m_s2"] / ref["ay_amplitude_m_s2"] - 1) <= 0.10
+            and all(abs(a - b) <= max(0.10 * b, 0.002)
+                    for a, b in zip(row["ay_band_rms_m_s2"], ref["ay_band_rms_m_s2"])))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--json")
+    args = parser.parse_args()
+    finest = min(STEPS)
+    repeats = [swivel_features(finest, yaw0) for yaw0 in (1e-6, 2e-6, 3e-6)]
+    print("Repeats at the finest step, 30 deg/s (yaw0 = 1e-6, 2e-6, 3e-6 rad):")
+    for r in repeats:
+        print("  ", {k: r[k] for k in ("mean_yaw_rate_deg_s", "ay_amplitude_m_s2",
+                                       "ay_band_rms_m_s2")}, flush=True)
+    rows = {}
+    for dt in STEPS:
+        reason = unstable_reason(dt)
+        row = {"unstable": reason}
+        if reason is None:
+            row["roll_free_response_hz"] = roll_frequency(dt)
+            for omega in (30.0, 64.0):
+                features = swivel_features(dt, omega=omega)
+                if features["raw_rms_m_s2"] > 9.81:
+                    row["unstable"] = (f"numerical limit cycle in the {omega:g} deg/s swivel "
+                                       "(accelerometer RMS > 1 g)")
+                row[f"swivel_{omega:g}"] = features
+        rows[dt] = row
+        print(f"dt={dt:g}: {row}", flush=True)
+
+    print("\n| dt (s) | stable | roll free response (Hz) | omega* (deg/s) | yaw rate (deg/s) | "
+          "a_y amplitude (m/s^2) | a_y RMS 0-10 / 10-20 / 20-50 Hz (m/s^2) | converged | "
+          "wall s per simulated s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for dt, r in rows.items():
+        if r["unstable"]:
+            print(f"| {dt:g} | no: {r['unstable']} | | | | | | | |")
+            continue
+        for omega in ("30", "64"):
+            f = r[f"swivel_{omega}"]
+            ok = converged(f, rows[finest][f"swivel_{omega}"])
+            f["converged"] = ok
+            bands = " / ".join(f"{v:.4f}" for v in f["ay_band_rms_m_s2"])
+            print(f"| {dt:g} | yes | {r['roll_free_response_hz']:.2f} | {omega} | "
+                  f"{f['mean_yaw_rate_deg_s']:.2f} | {f['ay_amplitude_m_s2']:.3f} | {bands} | "
+                  f"{'yes' if ok else 'no'} | {f['wall_s_per_simulated_s']:.3f} |")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"rows": {str(k): v for k, v in rows.items()}, "repeats": repeats}, fh,
+                      indent=2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,119 @@
+"""The models against the thesis's geometry and inertia (Sec. 5.1, Table 5.1, eq. 5.1)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import skidsteer
+from conftest import INERTIA_EQ_5_1, REPO, TABLE_5_1
+from skidsteer.tire_reference import find_wheels, floor_geoms, wheel_contact
+
+import derive_mass_properties as derivation
+
+
+def composite_inertia(m: mujoco.MjModel, d: mujoco.MjData, root: int = 1):
+    """Mass, CoM and inertia about the CoM of root's subtree, in root's axes."""
+    mujoco.mj_forward(m, d)
+    bodies = [b for b in range(m.nbody) if b == root or m.body_rootid[b] == root]
+    mass = sum(m.body_mass[b] for b in bodies)
+    com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
+    inertia = np.zeros((3, 3))
+    for b in bodies:
+        rot = d.ximat[b].reshape(3, 3)
+        offset = d.xipos[b] - com
+        inertia += rot @ np.diag(m.body_inertia[b]) @ rot.T
+        inertia += m.body_mass[b] * (offset @ offset * np.eye(3) - np.outer(offset, offset))
+    frame = d.xmat[root].reshape(3, 3)
+    return mass, com, frame.T @ inertia @ frame
+
+
+def test_composite_inertia_matches_eq_5_1(extended_model):
+    # acceptance: within 5 % on the diagonal.  By construction (the platform
+    # carries the remainder of eq. 5.1) it is exact up to print rounding, so
+    # any drift here means the parts and the derivation fell out of step.
+    d = mujoco.MjData(extended_model)
+    _, _, inertia = composite_inertia(extended_model, d)
+    np.testing.assert_allclose(np.diag(inertia), np.diag(INERTIA_EQ_5_1), rtol=0.05)
+    np.testing.assert_allclose(inertia, INERTIA_EQ_5_1, atol=2e-5)
+
+
+def test_com_at_origin_and_contacts_as_table_5_1(settled):
+    # acceptance: CoM-to-contact geometry within 1 cm of Table 5.1, measured
+    # on the robot settled on its tires (the tires compress ~0.9 mm)
+    m, d = settled
+    _, com, _ = composite_inertia(m, d)
+    frame = d.xmat[1].reshape(3, 3)
+    wheels = find_wheels(m)
+    assert [m.body(w.body).name for w in wheels] == ["wheel1", "wheel2", "wheel3", "wheel4"]
+    contacts = []
+    for wheel in wheels:
+        _, _, point = wheel_contact(m, d, wheel, floor_geoms(m))
+        contacts.append(frame.T @ (point - com))
+    np.testing.assert_allclose(np.array(contacts), TABLE_5_1, atol=0.01)
+
+
+def test_masses_follow_the_stated_evidence(extended_model, platform_model):
+    # platform 225 N / 9.8 (Sec. 3.3, the thesis's g), frame parts as derived
+    assert platform_model.body_subtreemass[1] == pytest.approx(225 / 9.8, rel=1e-6)
+    derived = derivation.derive()
+    assert extended_model.body_subtreemass[1] == pytest.approx(derived["total_mass_kg"], rel=1e-6)
+
+
+def test_frame_parts_match_the_derivation(extended_model):
+    # models/parts/frame.xml carries the numbers of scripts/derive_mass_properties.py
+    m = extended_model
+    for name, mass, position, inertia in derivation.parts():
+        body = m.body(name)
+        assert body.mass[0] == pytest.approx(mass, rel=1e-9), name
+        np.testing.assert_allclose(m.body_pos[body.id], position, atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(np.sort(body.inertia), np.sort(np.diag(inertia)), rtol=1e-6,
+                                   err_msg=name)
+    platform = derivation.derive()
+    np.testing.assert_allclose(m.body_ipos[1], platform["platform_com_m"], atol=1e-6)
+
+
+def test_platform_is_the_extended_robot_without_the_frame(extended_model, platform_model):
+    ext, plat = extended_model, platform_model
+    frame_parts = {"mast", "laptop", "camera"}
+    ext_bodies = {ext.body(b).name for b in range(ext.nbody)}
+    plat_bodies = {plat.body(b).name for b in range(plat.nbody)}
+    assert ext_bodies - plat_bodies == frame_parts
+    for name in plat_bodies:
+        a, b = ext.body(name), plat.body(name)
+        np.testing.assert_array_equal(a.pos, b.pos)
+        np.testing.assert_array_equal(a.mass, b.mass)
+        np.testing.assert_array_equal(a.inertia, b.inertia)
+
+
+def test_models_open_with_plain_mujoco_after_import():
+    # the issue's promise: import skidsteer, then plain MuJoCo loads the files
+    for name in ("pioneer3at_extended.xml", "pioneer3at.xml"):
+        m = mujoco.MjModel.from_xml_path(str(REPO / "models" / name))
+        d = mujoco.MjData(m)
+        mujoco.mj_step(m, d)
+        assert m.nplugin == 1
+
+
+def test_floors_are_named_parameter_sets():
+    assert skidsteer.FLOORS == ("concrete", "tile", "carpet")
+    from skidsteer.models import tire_config
+
+    assert tire_config("extended", "carpet")["floor"] == "carpet"
+
+
+def test_accelerometer_site_and_axes(extended_model):
+    # p_a = [-0.2, 0, 0] from the CoM, axes parallel to the robot's (Sec. 3.2)
+    m = extended_model
+    site = m.site("accelerometer_cube")
+    np.testing.assert_allclose(site.pos, [-0.2, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(site.quat, [1, 0, 0, 0], atol=1e-12)
+
+
+def test_one_velocity_servo_per_side_within_motor_limits(extended_model):
+    m = extended_model
+    assert [m.actuator(i).name for i in range(m.nu)] == ["left_motor", "right_motor"]
+    # 1200 mm/s firmware maximum over the wheel radius
+    np.testing.assert_allclose(m.actuator_ctrlrange, [[-11.16, 11.16]] * 2)
+    assert all(m.actuator_ctrllimited)

@@ -1,0 +1,92 @@
+"""The tire law's physics (Ch. 4), on the Python reference that the C plugin equals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from skidsteer.tire_reference import (
+    Kinematics, TireParams, advance, forces, friction_factors, normal_force, reset_state)
+
+NORMAL = 70.0  # N, about a quarter of the extended robot's weight
+P = TireParams()
+
+
+def loaded(slip_x=0.0, slip_y=0.0, rolling=0.0, rate=0.0) -> Kinematics:
+    return Kinematics(compression=NORMAL / P.stiffness_z, compression_rate=rate,
+                      slip_x=slip_x, slip_y=slip_y, rolling_speed=rolling)
+
+
+def drag(k: Kinematics, duration_s: float, h: float = 1e-5) -> np.ndarray:
+    """Lateral force on a wheel dragged with fixed kinematics, sampled every step."""
+    state = np.zeros(6)
+    reset_state(state)
+    out = []
+    for _ in range(int(duration_s / h)):
+        out.append(forces(P, k, state)[2])
+        advance(P, k, h, state)
+    return np.array(out)
+
+
+def test_locked_wheel_dragged_sideways_gives_a_saw_tooth():
+    # Sec. 3.3 / 4.1: the contact point sticks, the tire spring loads at K_y u,
+    # breaks away at mu_s N, slips, stops, sticks again
+    u = 1e-3  # m/s, the testing machine's speed
+    f = -drag(loaded(slip_y=u), 6.0)
+    peaks = np.flatnonzero((f[1:-1] > f[:-2]) & (f[1:-1] >= f[2:]) & (f[1:-1] > 0.5 * NORMAL)) + 1
+    assert len(peaks) >= 3  # repeated teeth, not one breakaway
+    # every tooth breaks away at the static limit mu_s N (+ the damper's D u)
+    np.testing.assert_allclose(f[peaks], P.mu_static * NORMAL + P.damping_y * u, rtol=2e-3)
+    # between teeth the force falls to about the kinetic level and no lower
+    # than the static level mirrored about it (a light contact point)
+    trough = f[peaks[0]:peaks[1]].min()
+    assert (2 * P.mu_kinetic - P.mu_static) * NORMAL - 1 <= trough <= P.mu_kinetic * NORMAL + 1
+    # the ramps load at the tire stiffness: df/dt = K_y u
+    ramp = np.diff(f[peaks[1] - 2000:peaks[1] - 1000]) / 1e-5
+    np.testing.assert_allclose(ramp, P.stiffness_y * u, rtol=1e-6)
+
+
+def test_sustained_slip_feels_kinetic_friction():
+    # the term eq. 6.4 drops: a wheel sliding steadily is held back by mu_k N
+    for u in (0.05, 0.5, -2.0):
+        f = drag(loaded(slip_y=u), 0.2)
+        assert f[-1] == pytest.approx(-np.sign(u) * P.mu_kinetic * NORMAL, rel=1e-9)
+
+
+def test_friction_factors_follow_eq_4_12():
+    lam_max = P.lambda_max
+    # locked wheel, sliding any way: full friction both ways
+    assert friction_factors(P, loaded(slip_x=0.1, slip_y=0.2)) == (1.0, 1.0)
+    # nothing moves: full grip (static friction holds a robot at rest)
+    assert friction_factors(P, loaded()) == (1.0, 1.0)
+    # rolling with small slip: mu_x = |lambda| / lambda_max, mu_y = |v_y| / (r w lambda_max)
+    mu = friction_factors(P, loaded(slip_x=-0.01, slip_y=0.002, rolling=0.5))
+    assert mu == pytest.approx((0.02 / lam_max, 0.002 / (0.5 * lam_max)))
+    # large slip: mu_x saturated, mu_y = tan(theta) = |v_y| / |Delta v_x|
+    assert friction_factors(P, loaded(slip_x=0.4, slip_y=0.1, rolling=0.5)) == (1.0, 0.25)
+    # spinning in place with little lateral motion: lateral friction mostly gone
+    # (the 20-30 N floor of Sec. 3.3 is then carried by mu_y = v_y / Delta v_x)
+    mu = friction_factors(P, loaded(slip_x=-0.04, slip_y=0.001, rolling=0.04))
+    assert mu == (1.0, pytest.approx(0.025))
+
+
+def test_wheel_off_the_floor_carries_nothing_and_relaxes():
+    k = Kinematics(compression=-1e-3, compression_rate=0.0, slip_x=1.0, slip_y=1.0,
+                   rolling_speed=0.0)
+    state = np.array([1e-3, 0.1, 0.0, -2e-3, 0.2, 0.0])
+    assert normal_force(P, k) == 0
+    np.testing.assert_array_equal(forces(P, k, state), [0, 0, 0])
+    advance(P, k, 1e-4, state)
+    np.testing.assert_array_equal(state, [0, 0, 1, 0, 0, 1])
+
+
+def test_floor_never_pulls():
+    # fast unloading: the damper would pull the wheel down; the floor cannot
+    assert normal_force(P, loaded(rate=-10.0)) == 0.0
+
+
+def test_belt_and_tread_in_series():
+    # eq. 4.14: K_x = K_tx K_b / (K_tx + K_b); an infinitely stiff tread leaves the belt
+    assert P.stiffness_x == P.belt_stiffness
+    p = TireParams(tread_stiffness_x=3000.0, belt_stiffness=3000.0)
+    assert p.stiffness_x == pytest.approx(1500.0)

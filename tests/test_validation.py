@@ -1,0 +1,99 @@
+"""Bad input fails early with a message naming the attribute, file or name at fault."""
+
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+import skidsteer
+from skidsteer.models import load_spec
+
+BAD_ATTRIBUTES = [
+    ("stiffness_y", "-5", "must be a finite number > 0"),
+    ("stiffness_z", "0", "must be a finite number > 0"),
+    ("damping_z", "-1", "must be a finite number >= 0"),
+    ("belt_stiffness", "inf", "must be a finite number > 0"),
+    ("tread_stiffness_x", "-3", "must be > 0"),
+    ("mu_static", "0", "must be a finite number > 0"),
+    ("mu_kinetic", "0.9", "must not exceed mu_static"),
+    ("lambda_max", "0", "must lie in (0, 1]"),
+    ("lambda_max", "1.5", "must lie in (0, 1]"),
+    ("contact_mass", "0", "must be a finite number > 0"),
+    ("radius", "-0.1", "must be > 0"),
+    ("damping_y", "abc", "is not a number"),
+    ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler
+]
+
+
+@pytest.mark.parametrize("key, value, rule", BAD_ATTRIBUTES)
+def test_bad_tire_attribute_fails_at_compile_time_naming_it(key, value, rule):
+    spec = mujoco.MjSpec.from_file(str(skidsteer.model_path("extended")))
+    instance = spec.plugins[0]
+    config = dict(instance.config)
+    config[key] = value
+    instance.config = config
+    with pytest.raises(ValueError) as error:
+        spec.compile()
+    message = str(error.value)
+    assert key in message
+    if rule is not None:
+        assert f'{key}="' in message and rule in message
+        assert value.lstrip("-") in message or key == "damping_y"
+
+
+def test_mu_kinetic_above_mu_static_names_both_values():
+    with pytest.raises(ValueError, match=r'mu_kinetic="0\.99".*must not exceed mu_static'):
+        skidsteer.load_model(tire={"mu_static": 0.9, "mu_kinetic": 0.99})
+
+
+def test_unknown_floor_in_the_model_fails_naming_it():
+    spec = mujoco.MjSpec.from_file(str(skidsteer.model_path("extended")))
+    spec.plugins[0].config = {"floor": "ice"}
+    with pytest.raises(ValueError, match='floor="ice" is unknown'):
+        spec.compile()
+
+
+def test_loader_rejects_unknown_names_before_compiling():
+    with pytest.raises(ValueError, match="unknown floor 'ice'"):
+        skidsteer.load_model("extended", "ice")
+    with pytest.raises(ValueError, match="unknown model 'tank'"):
+        skidsteer.load_model("tank")
+    with pytest.raises(FileNotFoundError, match="nowhere.xml"):
+        skidsteer.load_model("nowhere.xml")
+    with pytest.raises(ValueError, match="unknown tire attribute 'stifness_y'"):
+        skidsteer.load_model(tire={"stifness_y": 1})
+    with pytest.raises(ValueError, match="timestep must be > 0"):
+        skidsteer.load_model(timestep=0)
+
+
+def test_wheel_that_also_collides_natively_is_rejected():
+    spec = load_spec("extended")
+    spec.geom("tire2").contype = 1
+    spec.geom("tire2").conaffinity = 1
+    with pytest.raises(ValueError, match="geom 'tire2' of wheel 'wheel2' also collides"):
+        spec.compile()
+
+
+def test_wheel_without_radius_source_is_rejected():
+    spec = load_spec("extended")
+    spec.geom("tire3").type = mujoco.mjtGeom.mjGEOM_BOX
+    spec.geom("tire3").size = [0.1, 0.05, 0.1]
+    with pytest.raises(ValueError, match="wheel body 'wheel3' has no cylinder or sphere geom"):
+        spec.compile()
+
+
+def test_model_without_floor_is_rejected():
+    spec = load_spec("extended")
+    spec.delete(spec.geom("floor"))
+    with pytest.raises(ValueError, match="no floor"):
+        spec.compile()
+
+
+def test_cli_reports_bad_input_without_a_traceback(capsys):
+    from skidsteer.cli import main
+
+    assert main(["tire-loads", "--config", "extended", "--surface", "concrete", "--json"]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit):  # argparse names the bad choice
+        main(["swivel", "--surface", "ice"])
+    assert "invalid choice: 'ice'" in capsys.readouterr().err
