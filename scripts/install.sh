@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Installs skidsteer into a virtualenv (.venv by default), building the C plugin.
+# Usage: scripts/install.sh [--test]
+#   --test  also the test dependencies, and the system packages the rendering
+#           tests need (Xvfb; EGL/Mesa), installed with apt-get when possible.
+# Environment: PYTHON (default python3), SKIDSTEER_VENV (default .venv).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+with_tests=0
+[[ "${1:-}" == "--test" ]] && with_tests=1
+PYTHON=${PYTHON:-python3}
+VENV=${SKIDSTEER_VENV:-.venv}
+
+as_root() {
+  if [[ $(id -u) -eq 0 ]]; then "$@"
+  elif command -v sudo >/dev/null 2>&1; then sudo "$@"
+  else return 1
+  fi
+}
+
+apt_install() {  # apt_install PACKAGE... : installs what is missing, if we may
+  local missing=()
+  for pkg in "$@"; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+  done
+  [[ ${#missing[@]} -eq 0 ]] && return 0
+  if command -v apt-get >/dev/null 2>&1 &&
+     as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq &&
+     as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null; then
+    echo "install: apt-get installed ${missing[*]}"
+  else
+    echo "install: could not install ${missing[*]} (needs apt-get and root or sudo)" >&2
+    return 1
+  fi
+}
+
+# a C compiler for the plugin (CMake itself comes from PyPI if missing)
+if ! command -v cc >/dev/null 2>&1 && ! command -v gcc >/dev/null 2>&1; then
+  apt_install build-essential
+fi
+if ! "$PYTHON" -c "import venv, ensurepip" >/dev/null 2>&1; then
+  apt_install python3-venv
+fi
+if [[ $with_tests -eq 1 ]]; then
+  # Xvfb for the viewer test, EGL/Mesa for offscreen rendering
+  apt_install xvfb xauth libegl1 libgl1-mesa-dri || true
+fi
+
+[[ -x "$VENV/bin/python" ]] || "$PYTHON" -m venv "$VENV"
+"$VENV/bin/python" -m pip install --quiet --upgrade pip
+if [[ $with_tests -eq 1 ]]; then
+  "$VENV/bin/python" -m pip install --quiet ".[test]"
+else
+  "$VENV/bin/python" -m pip install --quiet .
+fi
+echo "install: skidsteer installed in $VENV"
