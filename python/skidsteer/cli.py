@@ -76,7 +76,7 @@ def tire_loads(build: str = "extended", surface: str = "concrete",
     mujoco.mj_forward(m, d)
     normal = d.sensordata[sensor_slice(m, "tire_forces")].reshape(-1, 3)[:, 0]
     wheels = find_wheels(m)
-    root = 1
+    root = int(m.body_rootid[wheels[0].body])  # the robot's free body
     mass = float(m.body_subtreemass[root])
     weight = mass * float(np.linalg.norm(m.opt.gravity))
     # eq. 2.24 from the compiled geometry: a, b from the CoM to the axles
