@@ -103,7 +103,6 @@ def mid_swivel():
 
 def test_reset_data_reproduces_a_rollout_bit_for_bit(mid_swivel):
     m, d = mid_swivel
-    d.ctrl[:] = [-2.0, 2.0]
     mujoco.mj_resetData(m, d)
     d.ctrl[:] = [-2.0, 2.0]
     first = _run_steps(m, d, 400)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.resources
 from pathlib import Path
 from typing import Mapping
@@ -17,7 +18,7 @@ BUILDS: dict[str, str] = {
 }
 FLOORS: tuple[str, ...] = tuple(FLOOR_FRICTION)
 TIRE_ATTRIBUTES: tuple[str, ...] = (
-    "floor", "radius", *(f.name for f in TireParams.__dataclass_fields__.values()))
+    "floor", "radius", *(f.name for f in dataclasses.fields(TireParams)))
 
 
 def models_dir() -> Path:
