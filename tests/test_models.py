@@ -8,25 +8,20 @@ import pytest
 
 import skidsteer
 from conftest import INERTIA_EQ_5_1, REPO, TABLE_5_1
+from skidsteer.models import THESIS_INERTIA_EQ_5_10, composite_inertia, tire_config
 from skidsteer.tire_reference import find_wheels, floor_geoms, wheel_contact
 
 import derive_mass_properties as derivation
 
 
-def composite_inertia(m: mujoco.MjModel, d: mujoco.MjData, root: int = 1):
-    """Mass, CoM and inertia about the CoM of root's subtree, in root's axes."""
-    mujoco.mj_forward(m, d)
-    bodies = [b for b in range(m.nbody) if b == root or m.body_rootid[b] == root]
-    mass = sum(m.body_mass[b] for b in bodies)
-    com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
-    inertia = np.zeros((3, 3))
-    for b in bodies:
-        rot = d.ximat[b].reshape(3, 3)
-        offset = d.xipos[b] - com
-        inertia += rot @ np.diag(m.body_inertia[b]) @ rot.T
-        inertia += m.body_mass[b] * (offset @ offset * np.eye(3) - np.outer(offset, offset))
-    frame = d.xmat[root].reshape(3, 3)
-    return mass, com, frame.T @ inertia @ frame
+def test_thesis_variant_has_the_inertia_of_eq_5_10():
+    m = skidsteer.load_model("extended", variant="thesis")
+    mass, _, inertia = composite_inertia(m, mujoco.MjData(m))
+    # exact by construction up to float rounding: drift means the recipe broke
+    np.testing.assert_allclose(inertia, np.diag(THESIS_INERTIA_EQ_5_10), atol=1e-9)
+    base = skidsteer.load_model("extended")
+    assert mass == pytest.approx(composite_inertia(base, mujoco.MjData(base))[0], rel=1e-12)
+    assert tire_config("extended", variant="thesis")["contact_point"] == "relay"
 
 
 def test_composite_inertia_matches_eq_5_1(extended_model):

@@ -19,7 +19,7 @@ from skidsteer.tire_reference import (
 RTOL = 1e-9
 
 
-def random_config(rng: np.random.Generator) -> dict[str, str]:
+def random_config(rng: np.random.Generator, contact_point: str = "coulomb") -> dict[str, str]:
     floor = str(rng.choice(list(FLOOR_FRICTION)))
     mu_s = rng.uniform(0.3, 1.2)
     config = {
@@ -36,6 +36,7 @@ def random_config(rng: np.random.Generator) -> dict[str, str]:
         "tread_damping_x": rng.choice([math.inf, rng.uniform(50, 500)]),
         "contact_mass": rng.uniform(0.001, 0.1),
         "lambda_max": rng.uniform(1e-4, 1.0),
+        "contact_point": contact_point,
     }
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
@@ -115,6 +116,18 @@ def test_plugin_equals_reference_on_a_plane(seed):
     ref = TireReference(m, TireParams.from_config(config))
     branches = compare(m, ref, rng, trials=60)
     # both branches of eq. 4.12 were exercised on loaded wheels
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_plugin_equals_reference_with_the_thesis_relay(seed):
+    # contact_point="relay": eq. 6.4 as the thesis simulated it
+    rng = np.random.default_rng(200 + seed)
+    config = random_config(rng, contact_point="relay")
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    assert ref.params.contact_point == "relay"
+    branches = compare(m, ref, rng, trials=60)
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
 

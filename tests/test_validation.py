@@ -52,6 +52,11 @@ def test_unknown_floor_in_the_model_fails_naming_it():
         spec.compile()
 
 
+def test_unknown_contact_point_model_fails_naming_it():
+    with pytest.raises(ValueError, match='contact_point="stick" is unknown: use coulomb'):
+        skidsteer.load_model(tire={"contact_point": "stick"})
+
+
 def test_loader_rejects_unknown_names_before_compiling():
     with pytest.raises(ValueError, match="unknown floor 'ice'"):
         skidsteer.load_model("extended", "ice")

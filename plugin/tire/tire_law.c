@@ -114,6 +114,40 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
 }
 
 
+// One implicit step of eq. 6.4 as the thesis's Simulink model has it (Sec. 6.1):
+// the contact point obeys m_t dv/dt + D v = F' with F' = K s + D u while the
+// relay flag is on and F' = 0 while it is off, so that a released contact
+// point decays to rest instead of stopping; the relay switches on when |F'|
+// exceeds the static limit and off when it falls below the kinetic limit.
+// The kinetic-friction term is dropped (the thesis's zero-crossing fix) and so
+// is m_t du/dt in F' (the wheel's acceleration; m_t = 0.035 kg makes it
+// negligible next to D u).  The state's TIRE_STUCK holds the flag: 1 = off.
+static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mass,
+                                    mjtNum static_limit, mjtNum kinetic_limit,
+                                    mjtNum drive, mjtNum h, mjtNum* st) {
+  mjtNum deflection = st[TIRE_DEFLECTION];
+  mjtNum velocity = st[TIRE_VELOCITY];
+  mjtNum driving = fabs(stiffness * deflection + damping * drive);  // |F'| at step start
+  int off = st[TIRE_STUCK] > 0.5;
+  if (off && driving > static_limit) {
+    off = 0;
+  } else if (!off && driving < kinetic_limit) {
+    off = 1;
+  }
+  mjtNum velocity_next;
+  if (off) {
+    velocity_next = mass * velocity / (mass + h * damping);
+  } else {
+    mjtNum a = mass + h * damping + h * h * stiffness;
+    velocity_next = (mass * velocity
+                     + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a;
+  }
+  st[TIRE_STUCK] = off;
+  st[TIRE_VELOCITY] = velocity_next;
+  st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
+}
+
+
 void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state) {
   mjtNum normal = tire_normal_force(p, k);
   if (normal <= 0) {
@@ -127,9 +161,11 @@ void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
   for (int dir = 0; dir < TIRE_NDIR; dir++) {
     // eq. 4.10: static and kinetic limits scale with the slip factor
-    advance_direction(stiffness[dir], damping[dir], p->contact_mass,
-                      p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * normal,
-                      drive[dir], h, state + dir * TIRE_NSTATE_DIR);
+    void (*step)(mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum*) =
+        p->relay ? advance_direction_relay : advance_direction;
+    step(stiffness[dir], damping[dir], p->contact_mass,
+         p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * normal,
+         drive[dir], h, state + dir * TIRE_NSTATE_DIR);
   }
 }
 

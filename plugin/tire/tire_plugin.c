@@ -34,6 +34,7 @@ static const char* const kAttributes[] = {
   "tread_damping_x",
   "contact_mass",
   "lambda_max",
+  "contact_point",
   "radius",
 };
 #define TIRE_NATTRIBUTE ((int)(sizeof(kAttributes) / sizeof(kAttributes[0])))
@@ -125,6 +126,19 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
       mju_warning("%s instance '%s': attribute floor=\"%s\" is unknown: "
                   "use concrete, tile or carpet, or set mu_static and mu_kinetic",
                   TIRE_PLUGIN_NAME, instance_name(m, instance), floor);
+      return -1;
+    }
+  }
+
+  const char* contact_point = mj_getPluginConfig(m, instance, "contact_point");
+  p->relay = 0;
+  if (contact_point && contact_point[0]) {
+    if (!strcmp(contact_point, "relay")) {
+      p->relay = 1;
+    } else if (strcmp(contact_point, "coulomb")) {
+      mju_warning("%s instance '%s': attribute contact_point=\"%s\" is unknown: "
+                  "use coulomb (default) or relay (eq. 6.4 as the thesis simulated it)",
+                  TIRE_PLUGIN_NAME, instance_name(m, instance), contact_point);
       return -1;
     }
   }

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Mapping
 
 import mujoco
+import numpy as np
 
 from skidsteer._plugin import PLUGIN_NAME
 from skidsteer.tire_reference import FLOOR_FRICTION, TireParams
@@ -17,6 +18,13 @@ BUILDS: dict[str, str] = {
     "platform": "pioneer3at.xml",  # bare platform ("noFrame" in the thesis)
 }
 FLOORS: tuple[str, ...] = tuple(FLOOR_FRICTION)
+# The model as the thesis published it (Ch. 5-6), as a configuration of ours:
+# the inertia identified from the free responses, eq. 5.10 (principal, about the
+# CoM; I_x and I_y ~10x the SolidWorks tensor of eq. 5.1), and the contact point
+# of eq. 6.4 as its Simulink model integrates it (relay flag, kinetic friction
+# dropped).  Everything else (Table 5.1, K, D, mu, m_t, lambda_max) is shared.
+THESIS_INERTIA_EQ_5_10 = (9.82, 19.83, 0.97)  # kg m^2
+VARIANTS: tuple[str, ...] = ("ours", "thesis")
 TIRE_ATTRIBUTES: tuple[str, ...] = (
     "floor", "radius", *(f.name for f in dataclasses.fields(TireParams)))
 
@@ -57,12 +65,64 @@ def tire_instance(spec: mujoco.MjSpec):
     return instances[0]
 
 
+def composite_inertia(m: mujoco.MjModel, d: mujoco.MjData, root: int = 1):
+    """Mass, CoM (world) and inertia about the CoM of root's subtree, in root's axes."""
+    mujoco.mj_forward(m, d)
+    bodies = [b for b in range(m.nbody) if b == root or m.body_rootid[b] == root]
+    mass = sum(m.body_mass[b] for b in bodies)
+    com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
+    inertia = np.zeros((3, 3))
+    for b in bodies:
+        rot = d.ximat[b].reshape(3, 3)
+        offset = d.xipos[b] - com
+        inertia += rot @ np.diag(m.body_inertia[b]) @ rot.T
+        inertia += m.body_mass[b] * (offset @ offset * np.eye(3) - np.outer(offset, offset))
+    frame = d.xmat[root].reshape(3, 3)
+    return mass, com, frame.T @ inertia @ frame
+
+
+def _apply_thesis_inertia(m: mujoco.MjModel) -> None:
+    """Sets the composite inertia about the CoM to eq. 5.10 by changing the chassis's.
+
+    eq. 5.10 breaks the triangle inequality (I_x + I_z = 10.79 < I_y = 19.83):
+    no rigid body has it, so the MJCF compiler rejects it.  The equations of
+    motion only need a positive-definite tensor, so it is written into the
+    compiled model, as the thesis's Simulink model used it.
+    """
+    chassis = m.body("chassis").id
+    _, _, composite = composite_inertia(m, mujoco.MjData(m), chassis)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, m.body_iquat[chassis])
+    rot = rot.reshape(3, 3)  # chassis inertia axes in the chassis frame
+    current = rot @ np.diag(m.body_inertia[chassis]) @ rot.T
+    # a tensor added at the chassis CoM adds to the composite about the
+    # composite CoM unchanged (the parallel-axis terms do not move)
+    target = current + np.diag(THESIS_INERTIA_EQ_5_10) - composite
+    moments, axes = np.linalg.eigh(target)
+    if np.linalg.det(axes) < 0:
+        axes[:, 0] *= -1
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, axes.flatten())
+    m.body_inertia[chassis] = moments
+    m.body_iquat[chassis] = quat
+    mujoco.mj_setConst(m, mujoco.MjData(m))  # derived constants (invweight0, ...)
+
+
 def load_spec(build: str = "extended", floor: str | None = None,
               tire: Mapping[str, float | str] | None = None,
-              timestep: float | None = None) -> mujoco.MjSpec:
-    """The model as an MjSpec, with the floor and tire attributes overridden."""
+              timestep: float | None = None, variant: str = "ours") -> mujoco.MjSpec:
+    """The model as an MjSpec, with the floor and tire attributes overridden.
+
+    variant="thesis" is the model as the thesis published it (see VARIANTS);
+    its identified inertia belongs to the extended robot only and, being no
+    rigid body's, is set on the compiled model by load_model.
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown model variant {variant!r}: use one of {list(VARIANTS)}")
     spec = mujoco.MjSpec.from_file(str(model_path(build)))
     overrides: dict[str, str] = {}
+    if variant == "thesis":
+        overrides["contact_point"] = "relay"  # the inertia is set by load_model
     if floor is not None:
         if floor not in FLOORS:
             raise ValueError(f"unknown floor {floor!r}: use one of {list(FLOORS)}")
@@ -86,12 +146,16 @@ def load_spec(build: str = "extended", floor: str | None = None,
 
 def load_model(build: str = "extended", floor: str | None = None,
                tire: Mapping[str, float | str] | None = None,
-               timestep: float | None = None) -> mujoco.MjModel:
+               timestep: float | None = None, variant: str = "ours") -> mujoco.MjModel:
     """Compiles a model; a bad tire attribute raises ValueError naming it."""
-    return load_spec(build, floor, tire, timestep).compile()
+    m = load_spec(build, floor, tire, timestep, variant).compile()
+    if variant == "thesis" and build == "extended":
+        _apply_thesis_inertia(m)
+    return m
 
 
 def tire_config(build: str = "extended", floor: str | None = None,
-                tire: Mapping[str, float | str] | None = None) -> dict[str, str]:
-    """The tire plugin attributes that load_model(build, floor, tire) compiles."""
-    return dict(tire_instance(load_spec(build, floor, tire)).config)
+                tire: Mapping[str, float | str] | None = None,
+                variant: str = "ours") -> dict[str, str]:
+    """The tire plugin attributes that load_model(build, floor, tire, variant=...) compiles."""
+    return dict(tire_instance(load_spec(build, floor, tire, variant=variant)).config)

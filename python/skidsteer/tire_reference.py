@@ -57,6 +57,9 @@ class TireParams:
     tread_damping_x: float = math.inf  # D_tx >> D_belt, eq. 4.14
     contact_mass: float = 0.035  # m_t, kg, Sec. 6.2
     lambda_max: float = 0.1  # assumed, Sec. 6.2 suggests 1e-1 to 1e-2
+    # "coulomb": contact point with kinetic friction (eq. 4.9/4.13); "relay": eq. 6.4
+    # as the thesis's Simulink model has it (relay flag, no kinetic-friction term)
+    contact_point: str = "coulomb"
 
     @property
     def stiffness_x(self) -> float:
@@ -74,7 +77,8 @@ class TireParams:
         config.pop("radius", None)
         mu_s, mu_k = FLOOR_FRICTION[floor]
         values = {"mu_static": mu_s, "mu_kinetic": mu_k}
-        values.update({k: float(v) for k, v in config.items()})
+        values.update({k: (v if k == "contact_point" else float(v))
+                       for k, v in config.items()})
         return cls(**values)
 
 
@@ -143,6 +147,31 @@ def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, dri
     st[DEFLECTION] = deflection + h * (drive - velocity_next)
 
 
+def advance_direction_relay(stiffness, damping, mass, static_limit, kinetic_limit, drive, h,
+                            st: np.ndarray) -> None:
+    """One step of eq. 6.4 as simulated in the thesis (in place).
+
+    m_t dv/dt + D v = F' with F' = K s + D u while the relay is on, 0 while off;
+    on when |F'| > F_s, off when |F'| < F_k; STUCK holds 1 while off.
+    """
+    deflection, velocity = st[DEFLECTION], st[VELOCITY]
+    driving = abs(stiffness * deflection + damping * drive)
+    off = st[STUCK] > 0.5
+    if off and driving > static_limit:
+        off = False
+    elif not off and driving < kinetic_limit:
+        off = True
+    if off:
+        velocity_next = mass * velocity / (mass + h * damping)
+    else:
+        a = mass + h * damping + h * h * stiffness
+        velocity_next = (mass * velocity
+                         + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a
+    st[STUCK] = 1.0 if off else 0.0
+    st[VELOCITY] = velocity_next
+    st[DEFLECTION] = deflection + h * (drive - velocity_next)
+
+
 def reset_state(state: np.ndarray) -> None:
     state[:] = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0]
 
@@ -154,13 +183,14 @@ def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> None:
         reset_state(state)
         return
     mu = friction_factors(p, k)
+    step = advance_direction_relay if p.contact_point == "relay" else advance_direction
     for direction, (stiffness, damping, drive) in enumerate((
             (p.stiffness_x, p.damping_x, k.slip_x),
             (p.stiffness_y, p.damping_y, k.slip_y))):
-        advance_direction(stiffness, damping, p.contact_mass,
-                          p.mu_static * mu[direction] * normal,
-                          p.mu_kinetic * mu[direction] * normal,
-                          drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR])
+        step(stiffness, damping, p.contact_mass,
+             p.mu_static * mu[direction] * normal,
+             p.mu_kinetic * mu[direction] * normal,
+             drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR])
 
 
 # --------------------------------------------------------------- kinematics
