@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.resources
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Mapping
 
 import mujoco
 import numpy as np
@@ -146,9 +146,16 @@ def load_spec(build: str = "extended", floor: str | None = None,
 
 def load_model(build: str = "extended", floor: str | None = None,
                tire: Mapping[str, float | str] | None = None,
-               timestep: float | None = None, variant: str = "ours") -> mujoco.MjModel:
-    """Compiles a model; a bad tire attribute raises ValueError naming it."""
-    m = load_spec(build, floor, tire, timestep, variant).compile()
+               timestep: float | None = None, variant: str = "ours",
+               edit: Callable[[mujoco.MjSpec], None] | None = None) -> mujoco.MjModel:
+    """Compiles a model; a bad tire attribute raises ValueError naming it.
+
+    edit(spec), if given, changes the spec before compiling (an experiment's rig).
+    """
+    spec = load_spec(build, floor, tire, timestep, variant)
+    if edit is not None:
+        edit(spec)
+    m = spec.compile()
     if variant == "thesis" and build == "extended":
         _apply_thesis_inertia(m)
     return m

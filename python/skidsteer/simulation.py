@@ -132,6 +132,23 @@ class Run:
         return float((self.tire_forces[:, :, 0] <= 0).any(axis=1).mean())
 
 
+def _run_from_rollout(m: mujoco.MjModel, states: np.ndarray, sensors: np.ndarray,
+                      ctrl: np.ndarray, t0: float) -> Run:
+    nstep = len(states)
+    wheels = [sensor_slice(m, f"wheel{i}_speed") for i in range(1, 5)
+              if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, f"wheel{i}_speed") >= 0]
+    tires = sensors[:, sensor_slice(m, "tire_forces")]
+    return Run(
+        time_s=states[:, 0] - t0,  # state starts with time in FULLPHYSICS
+        accel=sensors[:, sensor_slice(m, "accelerometer")].copy(),
+        gyro=sensors[:, sensor_slice(m, "gyro")].copy(),
+        wheel_speed=np.column_stack([sensors[:, s] for s in wheels]) if wheels else
+        np.zeros((nstep, 0)),
+        tire_forces=tires.reshape(nstep, -1, 3).copy(),
+        command=ctrl,
+    )
+
+
 def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_s: float,
                   settle_s: float = 2.0, d: mujoco.MjData | None = None) -> Run:
     """Settles the robot, then drives it open loop at (v_x*, omega_z*) for duration_s."""
@@ -142,18 +159,60 @@ def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_
     t0 = d.time
     nstep = int(round(duration_s / m.opt.timestep))
     states, sensors = rollout(m, d, ctrl, nstep)
-    wheels = [sensor_slice(m, f"wheel{i}_speed") for i in range(1, 5)
-              if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, f"wheel{i}_speed") >= 0]
-    tires = sensors[:, sensor_slice(m, "tire_forces")]
-    return Run(
-        time_s=states[:, 0] - t0,  # state starts with time in FULLPHYSICS
-        accel=sensors[:, sensor_slice(m, "accelerometer")],
-        gyro=sensors[:, sensor_slice(m, "gyro")],
-        wheel_speed=np.column_stack([sensors[:, s] for s in wheels]) if wheels else
-        np.zeros((nstep, 0)),
-        tire_forces=tires.reshape(nstep, -1, 3),
-        command=ctrl,
-    )
+    return _run_from_rollout(m, states, sensors, ctrl, t0)
+
+
+TRIAL_DEFLECTION_M = 1e-4  # assumed: 0.1 mm of tire deflection left over from placing the robot
+
+
+def perturbed(m: mujoco.MjModel, state: np.ndarray, seed: int | None) -> np.ndarray:
+    """A repeat trial's initial state: the settled state plus random residual tire
+    deflections (N(0, TRIAL_DEFLECTION_M) per wheel and direction), the way a robot
+    put down by hand never starts twice from the same tire state.  seed None: as is."""
+    if seed is None:
+        return state
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, state, FULLPHYSICS)
+    rng = np.random.default_rng(seed)
+    st = d.plugin_state.reshape(-1, 3)  # [deflection, velocity, stuck] per wheel and direction
+    st[:, 0] += rng.normal(0, TRIAL_DEFLECTION_M, len(st))
+    return get_state(m, d)
+
+
+def run_batch(models: list[mujoco.MjModel], commands: list[tuple[float, float]],
+              duration_s: float, settle_s: float = 2.0, nthread: int = 2,
+              seeds: list[int | None] | None = None) -> list[Run]:
+    """Runs i: models[i] settled, then driven at commands[i] = (v_x*, omega_z* deg/s),
+    from the settled state perturbed by seeds[i] (see perturbed).
+
+    Runs sharing a model object step together in one mujoco.rollout call on
+    nthread threads; settling is done once per model.  Runs of different models
+    are not mixed in one call: rollout would step them with MjData made from one
+    model, and the tire plugin keeps its attributes (the floor) in the plugin
+    data of the MjData it was initialised for.
+    """
+    if len(models) != len(commands):
+        raise ValueError("one command per model")
+    nstep = int(round(duration_s / models[0].opt.timestep))
+    runs: list[Run | None] = [None] * len(models)
+    groups: dict[int, list[int]] = {}
+    for i, m in enumerate(models):
+        groups.setdefault(id(m), []).append(i)
+    for indices in groups.values():
+        m = models[indices[0]]
+        settled = settle(m, mujoco.MjData(m), settle_s)
+        initial = np.stack([perturbed(m, settled, seeds[i] if seeds else None)
+                            for i in indices])
+        drive = DriveGeometry.from_model(m)
+        controls = np.stack([drive.control(m, commands[i][0], np.deg2rad(commands[i][1]))
+                             for i in indices])
+        datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(indices))))]
+        states, sensors = mujoco.rollout.rollout(
+            m, datas, initial, np.repeat(controls[:, None, :], nstep, axis=1),
+            nstep=nstep)
+        for k, i in enumerate(indices):
+            runs[i] = _run_from_rollout(m, states[k], sensors[k], controls[k], initial[k, 0])
+    return runs  # type: ignore[return-value]
 
 
 def swivel(m: mujoco.MjModel, omega_deg_s: float, duration_s: float = 20.0,
