@@ -12,54 +12,137 @@ import mujoco
 import numpy as np
 
 
-def _thesis_file_name(v_mps: float, omega_deg_s: float, duration_s: float, build: str,
-                      surface: str, suffix: str = ".csv") -> str:
-    """The thesis's run file name v{v}-w{omega}-t{duration}-{conf} (Appendix A)."""
-    conf = ([] if build == "extended" else ["noFrame"]) + [surface]
-    num = lambda x: f"{x:g}"  # noqa: E731
-    return f"v{num(v_mps)}-w{num(omega_deg_s)}-t{num(duration_s)}-{'-'.join(conf)}{suffix}"
+def _print_json(data: dict) -> None:
+    print(json.dumps(data, indent=2))
 
 
 def cmd_swivel(args: argparse.Namespace) -> int:
-    from skidsteer import signals
-    from skidsteer.datafiles import write_accelerometer_csv
-    from skidsteer.models import load_model
-    from skidsteer.simulation import swivel
+    from skidsteer.experiments import swivel, swivel_summary
+    from skidsteer.measured import write_run
+    from skidsteer.sweep import run_file_name
 
-    m = load_model(args.config, args.surface)
     started = time.perf_counter()
-    run = swivel(m, args.omega, args.duration, args.settle)
+    run = swivel(args.omega, args.surface, args.duration, config=args.config,
+                 mount=args.mount, variant=args.variant, settle_s=args.settle)
     wall = time.perf_counter() - started
-    out = Path(args.out) if args.out else Path("out") / _thesis_file_name(
-        0, args.omega, args.duration, args.config, args.surface)
+    out = Path(args.out) if args.out else Path("out") / run_file_name(
+        0, args.omega, args.duration, args.config, args.surface, args.mount)
     time_s, accel = run.accelerometer_log()
-    write_accelerometer_csv(out, time_s, accel)
-
-    fs = signals.sample_rate(time_s)
-    filtered = signals.lowpass(accel, fs)
-    summary = {
-        "command": {"v_mps": 0.0, "omega_deg_s": args.omega, "surface": args.surface,
-                    "config": args.config, "duration_s": args.duration},
-        "mean_yaw_rate_deg_s": run.mean_yaw_rate_deg_s(),
-        "wheel_lift_fraction": run.wheel_lift_fraction(),
-        "amplitude_m_s2": dict(zip("xyz", signals.amplitude(signals.central(filtered)).tolist())),
-        "main_peak_hz": dict(zip("xyz", signals.main_peak_hz(filtered, fs).tolist())),
-        "samples": int(len(time_s)),
-        "sample_rate_hz": fs,
-        "wall_time_s": wall,
-        "accelerometer_log": str(out),
-    }
+    write_run(out, time_s, accel)
+    command = {"v_mps": 0.0, "omega_deg_s": args.omega, "surface": args.surface,
+               "config": args.config, "mount": args.mount, "variant": args.variant,
+               "duration_s": args.duration}
+    summary = swivel_summary(run, command)
+    features = summary["features"]
+    summary.update({
+        "amplitude_m_s2": features["amplitude_m_s2"],
+        "main_peak_hz": features["main_peak_hz"],
+        "samples": int(len(time_s)), "sample_rate_hz": features["sample_rate_hz"],
+        "wall_time_s": wall, "accelerometer_log": str(out),
+    })
     if args.json:
-        print(json.dumps(summary, indent=2))
+        _print_json(summary)
+        return 0
+    print(f"swivel in place at {args.omega:g} deg/s on {args.surface} "
+          f"({args.config} build, {args.variant} model, cube on the {args.mount}, "
+          f"{args.duration:g} s simulated in {wall:.1f} s)")
+    print(f"  mean yaw rate        {summary['mean_yaw_rate_deg_s']:.2f} deg/s")
+    print(f"  wheel-lift fraction  {summary['wheel_lift_fraction']:.3f}")
+    for axis in "xyz":
+        print(f"  a_{axis}: amplitude {features['amplitude_m_s2'][axis]:.3f} m/s^2, "
+              f"main peak {features['main_peak_hz'][axis]:.2f} Hz, "
+              f"low band {features['low_band_peak_hz'][axis]:.2f} Hz, "
+              f"high band {features['high_band_peak_hz'][axis]:.2f} Hz")
+    print(f"  accelerometer log    {out}")
+    return 0
+
+
+def cmd_free_response(args: argparse.Namespace) -> int:
+    from skidsteer.experiments import free_response
+
+    result = free_response(args.axis, config=args.config, surface=args.surface,
+                           variant=args.variant)
+    if args.json:
+        _print_json(result)
     else:
-        print(f"swivel in place at {args.omega:g} deg/s on {args.surface} "
-              f"({args.config} build, {args.duration:g} s simulated in {wall:.1f} s)")
-        print(f"  mean yaw rate        {summary['mean_yaw_rate_deg_s']:.2f} deg/s")
-        print(f"  wheel-lift fraction  {summary['wheel_lift_fraction']:.3f}")
-        for axis in "xyz":
-            print(f"  a_{axis}: amplitude {summary['amplitude_m_s2'][axis]:.3f} m/s^2, "
-                  f"main peak {summary['main_peak_hz'][axis]:.2f} Hz")
-        print(f"  accelerometer log    {out}")
+        print(f"{args.axis} free response ({args.variant} model, a_{result['accelerometer_axis']}):"
+              f" peak {result['peak_hz']:.2f} Hz (FFT bin {result['bin_hz']:.3f} Hz), "
+              f"refined {result['refined_peak_hz']:.3f} Hz, decay {result['decay_per_s']:.2f} 1/s")
+    return 0
+
+
+def cmd_pull(args: argparse.Namespace) -> int:
+    from skidsteer.experiments import pull
+
+    result = pull(args.direction, args.height, args.wheels, args.slip_velocity,
+                  config=args.config, surface=args.surface, variant=args.variant,
+                  distance_m=args.distance)
+    if args.out:
+        from skidsteer.datafiles import write_atomically
+
+        trace = np.column_stack([result["trace"]["travel_m"], result["trace"]["force_N"]])
+        write_atomically(Path(args.out), lambda tmp: np.savetxt(
+            tmp, trace, delimiter=",", header="travel_m,force_N", comments="",
+            fmt=["%.7f", "%.4f"]))
+    if args.json:
+        _print_json(result)
+        return 0
+    fmt = lambda x, spec: "n/a" if x is None else format(x, spec)  # noqa: E731
+    print(f"{args.direction} pull at {args.height:g} m, wheels {args.wheels} "
+          f"({args.config} on {args.surface}, sum N = {result['normal_force_sum_N']:.1f} N)")
+    print(f"  first peak {fmt(result['first_peak_N'], '.1f')} N, max {result['max_force_N']:.1f} N, "
+          f"{result['teeth']} teeth, ramp slope {fmt(result['ramp_slope_N_per_m'], '.0f')} N/m, "
+          f"steady {result['steady_force_N']:.1f} N")
+    return 0
+
+
+def cmd_straight(args: argparse.Namespace) -> int:
+    from skidsteer.experiments import straight
+
+    result = straight(args.speed, args.duration, config=args.config, surface=args.surface,
+                      variant=args.variant)
+    if args.json:
+        _print_json(result)
+    else:
+        for key, value in result.items():
+            print(f"  {key:24s} {value}")
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from skidsteer.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
+
+    omegas = args.omega or list(THESIS_OMEGAS_DEG_S)
+    runs = plan(omegas, args.surface or ["concrete", "tile", "carpet"],
+                args.config or ["extended"], trials=args.trials, duration_s=args.duration,
+                mount=args.mount, variant=args.variant, suffix="." + args.format,
+                seed=args.seed)
+    started = time.perf_counter()
+    run_sweep(Path(args.out), runs, nthread=args.threads, progress=not args.quiet)
+    print(f"{len(runs)} runs in {args.out} ({time.perf_counter() - started:.1f} s)")
+    return 0
+
+
+def cmd_analyze(args: argparse.Namespace) -> int:
+    from skidsteer.analysis import analyze_paths
+
+    result = analyze_paths(args.path, args.out, figures=not args.no_figures)
+    if args.json:
+        _print_json(result)
+    else:
+        print(f"analysed {len(result.get('runs', []))} runs into {args.out}"
+              f" ({len(result.get('skipped', []))} skipped)")
+        for skipped in result.get("skipped", []):
+            print(f"  skipped {skipped['file']}: {skipped['reason']}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from skidsteer.report import reproduce
+
+    report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
+                       progress=not args.quiet)
+    print(f"report: {report}")
     return 0
 
 
@@ -118,20 +201,82 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from skidsteer.models import BUILDS, FLOORS
+    from skidsteer.models import BUILDS, FLOORS, VARIANTS
 
     parser = argparse.ArgumentParser(prog="skidsteer", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
 
+    def common(p, config="extended", variant=True):
+        p.add_argument("--config", choices=sorted(BUILDS), default=config,
+                       help="robot build: extended (mast, laptop, camera) or platform")
+        p.add_argument("--surface", choices=FLOORS, default="concrete")
+        if variant:
+            p.add_argument("--variant", choices=VARIANTS, default="ours",
+                           help="ours, or the thesis's model as published (eq. 5.10, 6.4)")
+        p.add_argument("--json", action="store_true", help="print the result as JSON")
+
     p = sub.add_parser("swivel", help="swivel in place and write the accelerometer log")
     p.add_argument("--omega", type=float, default=30.0, help="commanded yaw rate, deg/s")
-    p.add_argument("--surface", choices=FLOORS, default="concrete")
     p.add_argument("--duration", type=float, default=20.0, help="recorded time, s")
     p.add_argument("--settle", type=float, default=2.0, help="settling time before, s")
-    p.add_argument("--config", choices=sorted(BUILDS), default="extended")
-    p.add_argument("--out", help="accelerometer log (CSV, measured-data layout)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--mount", choices=("platform", "wheel"), default="platform",
+                   help="accelerometer cube on the platform (p_a) or on wheel 1")
+    p.add_argument("--out", help="accelerometer log, .csv or LabVIEW .xlsx (measured-data layout)")
+    common(p)
     p.set_defaults(func=cmd_swivel)
+
+    p = sub.add_parser("free-response", help="release and ring down (Sec. 5.2, 6.2)")
+    p.add_argument("--axis", choices=("roll", "pitch", "yaw"), default="roll")
+    common(p)
+    p.set_defaults(func=cmd_free_response)
+
+    p = sub.add_parser("pull", help="testing-machine pull test (Sec. 3.3, 6.2)")
+    p.add_argument("--direction", choices=("lateral", "longitudinal"), default="lateral")
+    p.add_argument("--height", type=float, default=0.0, help="cable height above the floor, m")
+    p.add_argument("--wheels", choices=("locked", "spinning"), default="locked")
+    p.add_argument("--slip-velocity", type=float, default=0.0,
+                   help="wheel slip velocity r*omega when spinning, m/s")
+    p.add_argument("--distance", type=float, default=None, help="machine travel, m")
+    p.add_argument("--out", help="force-distance trace CSV")
+    common(p, config="platform")
+    p.set_defaults(func=cmd_pull)
+
+    p = sub.add_parser("straight", help="straight line at constant speed (Fig. 6.8)")
+    p.add_argument("--speed", type=float, default=1.0, help="v_x*, m/s")
+    p.add_argument("--duration", type=float, default=5.0, help="s")
+    common(p)
+    p.set_defaults(func=cmd_straight)
+
+    p = sub.add_parser("sweep", help="swivel runs omega x floor x build into a dataset directory")
+    p.add_argument("--out", required=True, help="dataset directory (runs.csv + one file per run)")
+    p.add_argument("--omega", type=float, action="append",
+                   help="deg/s, repeatable (default: the thesis's 2, 4, ..., 64)")
+    p.add_argument("--surface", choices=FLOORS, action="append", help="repeatable (default: all)")
+    p.add_argument("--config", choices=sorted(BUILDS), action="append",
+                   help="repeatable (default: extended)")
+    p.add_argument("--mount", choices=("platform", "wheel"), default="platform")
+    p.add_argument("--variant", choices=VARIANTS, default="ours")
+    p.add_argument("--trials", type=int, default=1, help="repeats per command (seeded)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration", type=float, default=20.0)
+    p.add_argument("--format", choices=("csv", "xlsx"), default="csv")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("analyze", help="the thesis's Appendix A analysis of runs or a dataset")
+    p.add_argument("path", help="a run file (.csv/.xlsx) or a dataset directory")
+    p.add_argument("--out", required=True, help="directory for features.json and figures")
+    p.add_argument("--no-figures", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_analyze)
+
+    p = sub.add_parser("reproduce", help="every thesis experiment, report against its figures")
+    p.add_argument("--out", required=True, help="directory for report.md, results.json, figures")
+    p.add_argument("--quick", action="store_true", help="fewer omegas and shorter runs")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("tire-loads", help="normal forces of the robot at rest")
     p.add_argument("--config", choices=sorted(BUILDS), default="extended")

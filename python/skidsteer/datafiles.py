@@ -11,6 +11,15 @@ import numpy as np
 CSV_HEADER = "time_s,ax,ay,az"
 
 
+def _read_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _read_umask()  # once, at import: os.umask is process-wide
+
+
 def write_atomically(path: Path, write) -> Path:
     """Calls write(tmp_path), then renames tmp_path to path: never a half file."""
     path = Path(path)
@@ -19,6 +28,7 @@ def write_atomically(path: Path, write) -> Path:
     os.close(fd)
     try:
         write(Path(tmp))
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; a plain open() would not
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

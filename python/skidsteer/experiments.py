@@ -95,9 +95,7 @@ def free_response(axis: str = "roll", *, config: str = "extended", surface: str 
     trace = accel[:FREE_RESPONSE_SAMPLES, FREE_RESPONSE_AXES[axis]]
     features = free_response_features(time_s, trace)
     result = {"axis": axis, "accelerometer_axis": "xyz"[FREE_RESPONSE_AXES[axis]],
-              "config": config, "surface": surface, "variant": variant,
-              "peak_hz": features["peak_hz"], "refined_peak_hz": features["refined_peak_hz"],
-              "decay_per_s": features["decay_per_s"], "bin_hz": features["bin_hz"]}
+              "config": config, "surface": surface, "variant": variant, **features}
     if include_signal:
         result["time_s"] = time_s.tolist()
         result["signal_m_s2"] = trace.tolist()
