@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from skidsteer.cli import main
 
@@ -34,3 +35,46 @@ def test_tire_loads_json(capsys):
     assert main(["tire-loads", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert len(result["normal_forces_N"]) == 4
+
+
+def test_free_response_json(capsys):
+    assert main(["free-response", "--axis", "pitch", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["axis"] == "pitch" and result["accelerometer_axis"] == "x"
+    assert {"peak_hz", "refined_peak_hz", "decay_per_s"} <= set(result)
+
+
+def test_pull_json_and_trace_file(tmp_path, capsys):
+    trace = tmp_path / "trace.csv"
+    assert main(["pull", "--direction", "lateral", "--height", "0", "--wheels", "locked",
+                 "--distance", "0.003", "--out", str(trace), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["config"] == "platform"  # the rig of Sec. 3.3 pulls the platform
+    assert len(result["trace"]["travel_m"]) == len(result["trace"]["force_N"]) > 100
+    data = np.loadtxt(trace, delimiter=",", skiprows=1)
+    assert data.shape[1] == 2 and data[-1, 0] == pytest.approx(0.003, abs=1e-4)
+
+
+def test_pull_rejects_spinning_without_slip_velocity(capsys):
+    assert main(["pull", "--wheels", "spinning"]) == 2
+    assert "--slip-velocity" in capsys.readouterr().err
+
+
+def test_sweep_then_analyze_a_simulated_dataset(tmp_path, capsys):
+    data, out = tmp_path / "data", tmp_path / "analysis"
+    assert main(["sweep", "--out", str(data), "--omega", "10", "--omega", "30",
+                 "--surface", "carpet", "--duration", "3", "--format", "xlsx",
+                 "--quiet"]) == 0
+    names = sorted(p.name for p in data.iterdir())
+    assert names == ["runs.csv", "v0-w10-t3-carpet-1.xlsx", "v0-w30-t3-carpet-1.xlsx"]
+    assert main(["analyze", str(data), "--out", str(out), "--no-figures", "--json"]) == 0
+    capsys.readouterr()
+    result = json.loads((out / "analysis.json").read_text())
+    assert [r["omega_deg_s"] for r in result["summary"]] == [10.0, 30.0]
+    assert not result["skipped"]
+    # rerunning the sweep finds every file present and simulates nothing
+    mtimes = {p.name: p.stat().st_mtime_ns for p in data.glob("*.xlsx")}
+    assert main(["sweep", "--out", str(data), "--omega", "10", "--omega", "30",
+                 "--surface", "carpet", "--duration", "3", "--format", "xlsx",
+                 "--quiet"]) == 0
+    assert mtimes == {p.name: p.stat().st_mtime_ns for p in data.glob("*.xlsx")}

@@ -243,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("straight", help="straight line at constant speed (Fig. 6.8)")
     p.add_argument("--speed", type=float, default=1.0, help="v_x*, m/s")
-    p.add_argument("--duration", type=float, default=5.0, help="s")
+    p.add_argument("--duration", type=float, default=6.0, help="s (the 0.3 m/s^2 ramp takes 3.3 s)")
     common(p)
     p.set_defaults(func=cmd_straight)
 

@@ -44,6 +44,11 @@ SLIP_VELOCITIES_MPS = (0.002, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08)
 LOW_HZ, HIGH_HZ = 10.0, 20.0
 OMEGA_SPLIT = 30.0
 LARGE_AMPLITUDE_M_S2 = 1.0  # assumed: "large" = 0.1 g (the thesis gives no number in its text)
+# assumed: a run "vibrates" when its 1-50 Hz RMS (Welch, central 2^14 samples) is at
+# least 0.02 m/s^2 (2 mg).  Below it, peaks are not a vibration: our model's steady
+# swivel measures < 0.004 m/s^2 at the 0.1 ms step and 1e-4 m/s^2 at 25 us (numerical
+# residue that vanishes with the step), the thesis model's 0.1-0.15 m/s^2.
+VIBRATION_FLOOR_M_S2 = 0.02
 LIFT_OMEGAS = (56.0, 64.0, 72.0, 80.0, 96.0)
 
 
@@ -111,7 +116,7 @@ def pulls() -> dict:
 
 
 def straight_runs() -> list[dict]:
-    return [experiments.straight(1.0, 5.0, variant=v) for v in ("ours", "thesis")]
+    return [experiments.straight(1.0, 6.0, variant=v) for v in ("ours", "thesis")]
 
 
 def wheel_lift(nthread: int) -> list[dict]:
@@ -161,7 +166,15 @@ def _runs(analysis: dict, config: str = "extended", surface: str | None = None,
                    and lo < r["omega_deg_s"] < hi], key=lambda r: r["omega_deg_s"])
 
 
+def _vibrates(run: dict, axis: str = "y") -> bool:
+    rms = run["rms_m_s2"][axis]
+    return rms is not None and rms >= VIBRATION_FLOOR_M_S2
+
+
 def _top2(run: dict) -> list[float]:
+    """The two highest peaks of a_y; none when the run does not vibrate."""
+    if not _vibrates(run):
+        return []
     return [f for f in run["top_peaks_hz"]["y"][:2] if f is not None]
 
 
@@ -194,18 +207,18 @@ def sec_3_2_features(analysis: dict, surfaces=("concrete", "tile", "carpet")) ->
         add(f"both_low_above_30_{s}", f"{s}: above 30 deg/s both main peaks < 10 Hz",
             f, f is not None and f >= 0.5, f"fraction of runs: {_fmt(f)}")
         if s == "carpet":
-            f = _frac(slow + fast, lambda r: r["dominant_band"]["y"] == "low")
+            f = _frac(slow + fast, lambda r: _vibrates(r) and r["dominant_band"]["y"] == "low")
             add("carpet_low_dominant", "carpet: the low component always dominates", f,
                 f is not None and f >= 0.9, f"fraction of runs low-dominant: {_fmt(f)}")
         else:
-            f1 = _frac(slow, lambda r: r["dominant_band"]["y"] == "high")
-            f2 = _frac(fast, lambda r: r["dominant_band"]["y"] == "low")
+            f1 = _frac(slow, lambda r: _vibrates(r) and r["dominant_band"]["y"] == "high")
+            f2 = _frac(fast, lambda r: _vibrates(r) and r["dominant_band"]["y"] == "low")
             add(f"dominance_switch_{s}", f"{s}: high dominates below 30 deg/s, low above",
                 [f1, f2], f1 is not None and f2 is not None and f1 >= 0.5 and f2 >= 0.5,
                 f"high-dominant below: {_fmt(f1)}; low-dominant above: {_fmt(f2)}")
         hi_peaks = [(r["omega_deg_s"], r["high_band_peak_hz"]["y"]) for r in
                     _runs(analysis, surface=s, hi=OMEGA_SPLIT + 0.1)
-                    if r["high_band_peak_hz"]["y"] is not None]
+                    if r["high_band_peak_hz"]["y"] is not None and _vibrates(r)]
         rho = (stats.spearmanr(*zip(*hi_peaks)).statistic if len(hi_peaks) >= 3 else None)
         add(f"high_rises_{s}", f"{s}: the high component rises with omega up to 30 deg/s",
             _num(rho), rho is not None and rho >= 0.5,
@@ -241,13 +254,14 @@ def sec_3_2_features(analysis: dict, surfaces=("concrete", "tile", "carpet")) ->
             emax is not None and emax >= LARGE_AMPLITUDE_M_S2 > pmax,
             f"largest steady amplitude without frame {_fmt(pmax)}, with frame {_fmt(emax)} m/s^2")
         frac = [r["low_band_power"]["y"] / (r["low_band_power"]["y"] + r["high_band_power"]["y"])
-                for r in plat if r["low_band_power"]["y"] is not None
+                for r in plat if _vibrates(r) and r["low_band_power"]["y"] is not None
                 and r["high_band_power"]["y"] is not None
                 and r["low_band_power"]["y"] + r["high_band_power"]["y"] > 0]
         med = float(np.median(frac)) if frac else None
-        add(f"no_low_without_frame_{s}", f"{s}: without the frame low components nearly vanish",
-            med, med is not None and med < 0.2,
-            f"median low-band share of 1-50 Hz power: {_fmt(med)}")
+        add(f"no_low_without_frame_{s}", f"{s}: without the frame low components nearly vanish"
+            " (in runs that vibrate)", med, med is not None and med < 0.2,
+            f"median low-band share of 1-50 Hz power: {_fmt(med)} over {len(frac)} vibrating "
+            f"runs of {len(plat)}")
     return out
 
 
@@ -256,18 +270,28 @@ def wheel_mount_features(analysis: dict) -> list[dict]:
     for s in ("concrete", "carpet"):
         runs = [r for r in analysis["runs"] if r["surface"] == s and r["mount"] == "wheel"]
         runs.sort(key=lambda r: r["omega_deg_s"])
-        best = None
-        for k in range(3):
-            pts = [(r["omega_deg_s"], r["top_peaks_hz"]["y"][k]) for r in runs
-                   if r["top_peaks_hz"]["y"][k] is not None]
-            if len(pts) >= 3:
-                rr = stats.pearsonr(*zip(*pts)).statistic
-                best = rr if best is None or rr > best else best
+        if not runs:
+            reasons = [k["reason"] for k in analysis.get("skipped", [])][:1]
+            out.append({"feature": f"wheel_components_linear_{s}",
+                        "statement": f"{s}, cube on a wheel: components rise with omega",
+                        "value": None, "reproduced": None,
+                        "evidence": "no readable run: " + "; ".join(reasons)})
+            continue
+        best, best_axis = None, None
+        for axis in "xyz":
+            for k in range(3):
+                pts = [(r["omega_deg_s"], r["top_peaks_hz"][axis][k]) for r in runs
+                       if r["top_peaks_hz"][axis][k] is not None and _vibrates(r, axis)]
+                if len(pts) >= max(3, len(runs) // 2):
+                    rr = stats.pearsonr(*zip(*pts)).statistic
+                    if best is None or rr > best:
+                        best, best_axis = rr, axis
         out.append({"feature": f"wheel_components_linear_{s}",
                     "statement": f"{s}, cube on a wheel (omega < 20): one or two components "
                     "rise about linearly with omega", "value": _num(best),
                     "reproduced": best is not None and best >= 0.9,
-                    "evidence": f"best Pearson r of a top-3 peak vs omega: {_fmt(best)}"})
+                    "evidence": f"best Pearson r of a top-3 peak vs omega over vibrating runs: "
+                    f"{_fmt(best)}" + (f" (a_{best_axis})" if best_axis else "")})
     return out
 
 
@@ -324,6 +348,16 @@ CAUSES = {
         "(issue 4): mast_compliance (large vibrations only with the frame, which is "
         "screwed on, laptop on Velcro), ground_roughness (the thesis's own suspect), "
         "wheel_eccentricity (on-wheel components rising with omega)."),
+    "relay_limit_cycle": (
+        "Where the thesis model vibrates and ours does not, the difference is eq. 6.4: "
+        "with the kinetic-friction term dropped, a sliding contact point's spring force "
+        "falls below the relay's kinetic threshold, the relay re-sticks it, the tire winds "
+        "up to static friction and lets go again: a stick-slip limit cycle near 22 Hz "
+        "(a_y RMS 0.11 m/s^2 at 30 deg/s on concrete, converged at 25-50 us; 0.15 at the "
+        "default 0.1 ms). Keeping kinetic friction (eq. 4.9/4.13), a sliding contact point "
+        "never slows to re-stick and the steady swivel is smooth (RMS 1e-4 m/s^2 at "
+        "25 us). The thesis's qualitative jerky motion is produced by its integration "
+        "shortcut, not by the tire law it derives."),
     "wheel_components": (
         "The model has round, smooth wheels: nothing excites at wheel-rotation harmonics "
         "(candidate wheel_eccentricity, issue 4)."),
@@ -367,6 +401,8 @@ def reproduce(out: Path, quick: bool = False, nthread: int = 2, progress: bool =
     analyses = swivel_datasets(out, quick, nthread, progress)
     for name, analysis in analyses.items():
         summary = analysis["summary"]
+        if not summary:  # every run skipped: the reasons are in results.json
+            continue
         fig_paths[f"{name}_peaks"] = fig.plot_features_vs_omega(
             summary, figs / f"swivel_{name}_peaks.png", "peak")
         fig_paths[f"{name}_amplitude"] = fig.plot_features_vs_omega(
@@ -584,24 +620,34 @@ def render(results: dict) -> str:
         t = th.get(r["feature"])
         cause = "" if r["reproduced"] else _feature_cause(r["feature"])
         rows.append([r["statement"],
-                     "-" if t is None else ("yes" if t["reproduced"] else "no") +
-                     f" ({t['evidence']})",
-                     ("yes" if r["reproduced"] else "**no**") + f" ({r['evidence']})",
-                     _short_cause(cause)])
+                     "-" if t is None else _verdict(t["reproduced"]) + f" ({t['evidence']})",
+                     _verdict(r["reproduced"], bold=True) + f" ({r['evidence']})",
+                     _short_cause(cause) if r["reproduced"] is False else ""])
     md.append(_table(["Sec. 3.2 / 6.2 feature", "thesis model", "ours", "suspected cause"],
                      rows))
+    md.append(f"\nA run counts as vibrating when its 1-50 Hz RMS on the axis is at least "
+              f"{VIBRATION_FLOOR_M_S2} m/s^2 (assumed floor; below it a spectral peak is "
+              "numerical residue that shrinks with the time step).\n")
     md.append(f"\nCause (for every \"no\" above marked swivel): {CAUSES['swivel_vibration']}\n")
+    md.append(f"\n{CAUSES['relay_limit_cycle']}\n")
     md.append("\nThe thesis's own finding (Sec. 6.2) that its model's amplitudes are far too "
               "small holds for its configuration here as well; see the amplitude figures.\n")
     for name in ("ours", "thesis", "ours_wheel"):
-        md.append(f"\n![{name} peaks](figures/swivel_{name}_peaks.png)\n"
-                  f"![{name} amplitude](figures/swivel_{name}_amplitude.png)\n")
+        if f"{name}_peaks" in results["figures"]:
+            md.append(f"\n![{name} peaks](figures/swivel_{name}_peaks.png)\n"
+                      f"![{name} amplitude](figures/swivel_{name}_amplitude.png)\n")
     md.append("\n### Wheel lift\n\n")
     md.append(_table(["model", "omega (deg/s)", "lift fraction", "mean yaw rate (deg/s)"],
                      [[VARIANT_NAMES[r["variant"]], f"{r['omega_deg_s']:g}",
                        f"{r['wheel_lift_fraction']:.3f}", f"{r['mean_yaw_rate_deg_s']:.1f}"]
                       for r in results["wheel_lift"]]))
     return "".join(md)
+
+
+def _verdict(reproduced: bool | None, bold: bool = False) -> str:
+    if reproduced is None:
+        return "not evaluated"
+    return "yes" if reproduced else ("**no**" if bold else "no")
 
 
 def _short_cause(cause: str) -> str:

@@ -16,6 +16,12 @@ from scipy import signal
 from skidsteer.tire_reference import find_wheels
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
+# The P3-AT firmware ramps a new velocity command at its acceleration limits
+# (ARIA robot parameter file p3at.p: TransAccel 300 mm/s^2, RotAccel 100 deg/s^2;
+# assumed to be the thesis robot's settings).  A step in wheel speed would jerk
+# the bare wheels (inertia 2.5e-4 kg m^2) at thousands of rad/s^2.
+TRANS_ACCEL_MPS2 = 0.3
+ROT_ACCEL_DEG_S2 = 100.0
 LOG_RATE_HZ = 1000.0  # the thesis's accelerometer sample rate (Sec. 3.2)
 
 
@@ -46,6 +52,18 @@ class DriveGeometry:
         """eq. 2.11 inverted without slip: the thesis's feed-forward (Sec. 6.1)."""
         c, r = self.half_track, self.wheel_radius
         return (v_mps - c * omega_rad_s) / r, (v_mps + c * omega_rad_s) / r
+
+    def ramp(self, m: mujoco.MjModel, v_mps: float, omega_deg_s: float,
+             nstep: int) -> np.ndarray:
+        """(nstep, nu) controls: from rest to (v_x*, omega_z*) at the firmware's
+        acceleration limits, then held (step k acts over t in [k dt, (k+1) dt])."""
+        t = (np.arange(nstep) + 1) * m.opt.timestep
+        v = np.sign(v_mps) * np.minimum(abs(v_mps), TRANS_ACCEL_MPS2 * t)
+        w = np.sign(omega_deg_s) * np.minimum(abs(omega_deg_s), ROT_ACCEL_DEG_S2 * t)
+        left, right = self.wheel_speeds(v, np.deg2rad(w))
+        ctrl = np.zeros((nstep, m.nu))
+        ctrl[:, self.left_actuator], ctrl[:, self.right_actuator] = left, right
+        return ctrl
 
     def control(self, m: mujoco.MjModel, v_mps: float, omega_rad_s: float) -> np.ndarray:
         ctrl = np.zeros(m.nu)
@@ -151,15 +169,16 @@ def _run_from_rollout(m: mujoco.MjModel, states: np.ndarray, sensors: np.ndarray
 
 def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_s: float,
                   settle_s: float = 2.0, d: mujoco.MjData | None = None) -> Run:
-    """Settles the robot, then drives it open loop at (v_x*, omega_z*) for duration_s."""
+    """Settles the robot, then drives it open loop at (v_x*, omega_z*) for duration_s,
+    the command ramped in at the firmware's acceleration limits (DriveGeometry.ramp)."""
     d = d if d is not None else mujoco.MjData(m)
     settle(m, d, settle_s)
     drive = DriveGeometry.from_model(m)
-    ctrl = drive.control(m, v_mps, np.deg2rad(omega_deg_s))
     t0 = d.time
     nstep = int(round(duration_s / m.opt.timestep))
+    ctrl = drive.ramp(m, v_mps, omega_deg_s, nstep)
     states, sensors = rollout(m, d, ctrl, nstep)
-    return _run_from_rollout(m, states, sensors, ctrl, t0)
+    return _run_from_rollout(m, states, sensors, ctrl[-1], t0)
 
 
 TRIAL_DEFLECTION_M = 1e-4  # assumed: 0.1 mm of tire deflection left over from placing the robot
@@ -204,14 +223,15 @@ def run_batch(models: list[mujoco.MjModel], commands: list[tuple[float, float]],
         initial = np.stack([perturbed(m, settled, seeds[i] if seeds else None)
                             for i in indices])
         drive = DriveGeometry.from_model(m)
-        controls = np.stack([drive.control(m, commands[i][0], np.deg2rad(commands[i][1]))
+        controls = np.stack([drive.ramp(m, commands[i][0], commands[i][1], nstep)
                              for i in indices])
         datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(indices))))]
         states, sensors = mujoco.rollout.rollout(
-            m, datas, initial, np.repeat(controls[:, None, :], nstep, axis=1),
+            m, datas, initial, controls,
             nstep=nstep)
         for k, i in enumerate(indices):
-            runs[i] = _run_from_rollout(m, states[k], sensors[k], controls[k], initial[k, 0])
+            runs[i] = _run_from_rollout(m, states[k], sensors[k], controls[k, -1],
+                                        initial[k, 0])
     return runs  # type: ignore[return-value]
 
 

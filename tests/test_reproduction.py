@@ -1,0 +1,127 @@
+"""The thesis's measurements that issue 3 sets as targets: Table 5.2 and Sec. 3.3.
+
+Targets met are asserted; targets our model misses for a documented cause are
+strict xfails: they fail the suite if the miss disappears (the report and the
+README would then be wrong) and they keep the miss visible in every run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from skidsteer import experiments
+from skidsteer.report import CAUSES, TABLE_5_2
+
+FREQUENCY_TARGET = 0.10  # issue 3: free-response frequency within 10 % of Table 5.2
+DECAY_FACTOR_TARGET = 1.6  # issue 3: decay rate within a factor 1.6
+
+
+@pytest.fixture(scope="module")
+def free_responses():
+    return {axis: experiments.free_response(axis) for axis in ("roll", "pitch", "yaw")}
+
+
+def _frequency_error(result, axis):
+    return abs(result["refined_peak_hz"] / TABLE_5_2[axis]["peak_hz"] - 1)
+
+
+def _decay_factor(result, axis):
+    a, b = result["decay_per_s"], TABLE_5_2[axis]["decay_per_s"]
+    return max(a / b, b / a)
+
+
+@pytest.mark.parametrize("axis", ["pitch", "yaw"])
+def test_free_response_frequency_within_10_percent_of_table_5_2(free_responses, axis):
+    assert _frequency_error(free_responses[axis], axis) <= FREQUENCY_TARGET
+
+
+@pytest.mark.xfail(strict=True, reason="roll +10.1 %: " + CAUSES["free_response_roll"])
+def test_roll_frequency_within_10_percent_of_table_5_2(free_responses):
+    assert _frequency_error(free_responses["roll"], "roll") <= FREQUENCY_TARGET
+
+
+def test_roll_frequency_miss_is_a_near_miss(free_responses):
+    # the documented miss stays what the report says: above 10 %, below 12 %
+    assert 0.10 < _frequency_error(free_responses["roll"], "roll") < 0.12
+
+
+@pytest.mark.parametrize("axis", ["roll", "pitch"])
+def test_free_response_decay_within_factor_1_6(free_responses, axis):
+    assert _decay_factor(free_responses[axis], axis) <= DECAY_FACTOR_TARGET
+
+
+@pytest.mark.xfail(strict=True, reason=CAUSES["free_response_decay_yaw"])
+def test_yaw_decay_within_factor_1_6(free_responses):
+    assert _decay_factor(free_responses["yaw"], "yaw") <= DECAY_FACTOR_TARGET
+
+
+@pytest.fixture(scope="module")
+def lateral_pull():
+    return experiments.pull("lateral", 0.0, "locked")  # platform on concrete, at the floor
+
+
+def test_lateral_pull_first_peak_is_static_friction(lateral_pull):
+    # issue 3 target: with the cable at contact height the first peak is mu_s N within 10 %
+    mu_s_n = 0.86 * lateral_pull["normal_force_sum_N"]
+    assert lateral_pull["first_peak_N"] == pytest.approx(mu_s_n, rel=0.10)
+    # and it lies in Sec. 3.3's measured 180-200 N (the platform weighs 225 N)
+    assert 180 <= lateral_pull["first_peak_N"] <= 200
+    assert lateral_pull["normal_force_sum_N"] == pytest.approx(225, rel=0.01)
+
+
+def test_lateral_pull_is_a_saw_tooth_with_ramps_between_2k_and_4k(lateral_pull):
+    assert lateral_pull["teeth"] >= 5  # 10 mm of travel, ~0.2 mm per tooth
+    slope = lateral_pull["ramp_slope_N_per_m"] / 18000.0
+    assert 2.0 <= slope <= 4.0  # Sec. 6.2: two to four tire springs in parallel
+
+
+def test_pull_above_the_tipping_height_tips_before_sliding():
+    # rigid-body statics: the robot tips when F h > m g c (c = 0.18 m, Table 5.1), i.e.
+    # before sliding (F = mu_s m g) when h > c / mu_s = 0.21 m
+    result = experiments.pull("lateral", 0.3, "locked", distance_m=0.006)
+    weight = result["normal_force_sum_N"]
+    assert result["max_force_N"] < 1.1 * weight * 0.18 / 0.3 < 0.86 * weight
+
+
+def test_longitudinal_pull_slope_is_four_belts_in_series_with_the_cable():
+    result = experiments.pull("longitudinal", 0.0, "locked", distance_m=0.006)
+    four_belts = 4 * 3000.0  # K_belt per wheel, eq. 4.13-4.14
+    expected = 1 / (1 / four_belts + 1 / experiments.CABLE_STIFFNESS)
+    # the ramp before the first breakaway; 5 %: the tires' damping and the robot's small
+    # pitch under a cable at the floor
+    assert result["max_force_N"] / 0.006 == pytest.approx(expected, rel=0.05)
+
+
+@pytest.mark.xfail(strict=True, reason=CAUSES["spin_force"])
+def test_spinning_wheels_lateral_force_is_20_to_30_newtons():
+    result = experiments.pull("lateral", 0.0, "spinning", 0.04)
+    assert 20 <= result["steady_force_N"] <= 30
+
+
+def test_spinning_wheels_lateral_force_falls_with_slip():
+    slow = experiments.pull("lateral", 0.0, "spinning", 0.002, distance_m=0.004)
+    fast = experiments.pull("lateral", 0.0, "spinning", 0.04, distance_m=0.004)
+    # eq. 4.12b: mu_y = |v_y| / |Delta v_x| falls with slip; the sliding platform's
+    # lateral friction is far below static friction once the wheels spin
+    assert fast["steady_force_N"] < 0.5 * slow["steady_force_N"]
+    assert fast["steady_force_N"] < 0.2 * 0.86 * fast["normal_force_sum_N"]
+
+
+def test_straight_line_reaches_the_commanded_speed():
+    result = experiments.straight(1.0, 6.0)
+    assert result["mean_speed_mps"] == pytest.approx(1.0, rel=0.01)
+    assert abs(result["heading_drift_deg"]) < 0.1  # symmetric robot, symmetric command
+    assert result["steady_slip"] < 0.01
+    # the ramp at the firmware's 0.3 m/s^2 reaches 0.9 m/s after 3 s
+    assert result["time_to_90_percent_s"] == pytest.approx(3.0, abs=0.1)
+
+
+def test_thesis_variant_differs_where_it_should():
+    ours = experiments.free_response("roll")
+    thesis = experiments.free_response("roll", variant="thesis")
+    # eq. 5.10's I_x is 8x eq. 5.1's: the roll mode must be slower, but with the tire
+    # springs coupling roll and sway it is not sqrt(8) slower
+    ratio = ours["refined_peak_hz"] / thesis["refined_peak_hz"]
+    assert 1.1 < ratio < math.sqrt(9.82 / 1.21)
