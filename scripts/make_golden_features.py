@@ -1,0 +1,318 @@
+"""Golden swivel features for CI: tests/golden/swivel_features.json.
+
+A fixed, small set of simulated swivels in place (20 s each, ~1.7 s of CPU
+per run) is analysed as the thesis's Appendix A / Sec. 3.2 (skidsteer.analysis
+.swivel_features), and the robust features of each run are stored:
+
+  per accelerometer axis x, y, z:
+    low_band_peak_hz, high_band_peak_hz   Welch PSD maxima in 1-10 / 20-50 Hz
+    log10_low_band_power, log10_high_band_power   band powers, log10(m^2/s^4)
+    steady_amplitude_m_s2   (max - min) / 2 of the central 2^14 low-passed samples
+  and mean_yaw_rate_deg_s (gyro z, whole run).
+
+For each case the reference run (the unperturbed settled start, seed None) is
+what tests/test_golden_features.py re-simulates and compares.  Its tolerance
+per feature is
+
+  max(SIGMAS * std of N seeded repeat trials, resolution floor)
+
+The stick-slip swivel is chaotic: a 0.1 mm residual tire deflection
+(simulation.TRIAL_DEFLECTION_M) changes the vibration, and so can a last-bit
+floating-point difference (another CPU instruction set, compiler or libm; on
+one machine the runs are bit-identical whatever the batch or thread count).
+The spread of the seeded repeats therefore measures how far a legitimate
+re-simulation may land from the golden value; 3 sigma of it is what the
+comparison allows.  The floors are the measurement resolution, below
+which a difference means nothing: one Welch bin for frequencies, 0.05 decades
+for log band powers, 5 % relative for amplitudes and the yaw rate.
+
+Run from the repository root (all cases of one model step in one run_batch):
+
+  python scripts/make_golden_features.py --out tests/golden/swivel_features.json --trials 8
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import hashlib
+import json
+import math
+import platform
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import scipy
+
+from skidsteer import signals
+from skidsteer.analysis import AXES, swivel_features
+from skidsteer.experiments import swivel_model
+from skidsteer.simulation import LOG_RATE_HZ, TRIAL_DEFLECTION_M, run_batch
+
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_OUT = Path("tests/golden/swivel_features.json")
+SCHEMA = 1
+
+DURATION_S = 20.0
+SETTLE_S = 2.0
+MOUNT = "platform"
+VARIANT = "ours"
+# (config, surface, omega deg/s): the extended robot on concrete at a slow, the
+# thesis's usual and a fast swivel, on carpet, and the bare platform build
+CASES = [
+    {"config": "extended", "surface": "concrete", "omega_deg_s": 10.0},
+    {"config": "extended", "surface": "concrete", "omega_deg_s": 30.0},
+    {"config": "extended", "surface": "concrete", "omega_deg_s": 50.0},
+    {"config": "extended", "surface": "carpet", "omega_deg_s": 30.0},
+    {"config": "platform", "surface": "concrete", "omega_deg_s": 30.0},
+]
+
+SIGMAS = 3.0  # tolerance = SIGMAS x the repeats' sample std (ddof = 1) ...
+LOG_POWER_FLOOR_DECADES = 0.05  # ... but at least these floors
+RELATIVE_FLOOR = 0.05
+
+FREQUENCY_FEATURES = ("low_band_peak_hz", "high_band_peak_hz")
+LOG_POWER_FEATURES = ("log10_low_band_power", "log10_high_band_power")
+AMPLITUDE_FEATURES = ("steady_amplitude_m_s2",)
+PER_AXIS_FEATURES = FREQUENCY_FEATURES + LOG_POWER_FEATURES + AMPLITUDE_FEATURES
+SCALAR_FEATURES = ("mean_yaw_rate_deg_s",)
+FEATURES = PER_AXIS_FEATURES + SCALAR_FEATURES
+
+
+def welch_bin_hz(fs: float = LOG_RATE_HZ) -> float:
+    """Bin spacing of signals.welch_spectrum (its default nperseg) on the analysed
+    central FFT_SAMPLES of a run logged at fs: 1000 / 4096 = 0.244 Hz at 1 kHz."""
+    freq, _ = signals.welch_spectrum(np.zeros(signals.FFT_SAMPLES), fs)
+    return float(freq[1] - freq[0])
+
+
+def case_name(case: dict) -> str:
+    return (f"{case['config']}-{case['surface']}-{case.get('mount', MOUNT)}-"
+            f"{case.get('variant', VARIANT)}-w{case['omega_deg_s']:g}")
+
+
+def _log10(value: float | None) -> float | None:
+    return math.log10(value) if value is not None and value > 0 else None
+
+
+def robust_features(run) -> dict:
+    """{feature: {axis: value}} for PER_AXIS_FEATURES, {feature: value} for the
+    scalar ones; None where swivel_features has none (e.g. no power in a band)."""
+    time_s, accel = run.accelerometer_log()
+    f = swivel_features(time_s, accel)
+    out = {name: dict(f[name]) for name in FREQUENCY_FEATURES + AMPLITUDE_FEATURES}
+    for name in LOG_POWER_FEATURES:
+        source = name.removeprefix("log10_")
+        out[name] = {a: _log10(f[source][a]) for a in AXES}
+    value = run.mean_yaw_rate_deg_s()
+    out["mean_yaw_rate_deg_s"] = value if math.isfinite(value) else None
+    return out
+
+
+def iter_values(features: dict):
+    """(feature, axis or None, value) of a robust_features() dict, in FEATURES order."""
+    for name in FEATURES:
+        value = features[name]
+        if isinstance(value, dict):
+            for a in AXES:
+                yield name, a, value[a]
+        else:
+            yield name, None, value
+
+
+def simulate_features(cases: list[dict], seeds: list[int | None], nthread: int = 2,
+                      log=None) -> list[list[dict]]:
+    """robust_features of every case run from every seed: result[case][seed index].
+
+    The cases sharing a model (config, surface, mount, variant) and run length
+    step, with all their seeds, in one run_batch call on one model object.
+    """
+    groups: dict[tuple, list[int]] = {}
+    for i, case in enumerate(cases):
+        key = (case["config"], case["surface"], case.get("mount", MOUNT),
+               case.get("variant", VARIANT), case.get("duration_s", DURATION_S),
+               case.get("settle_s", SETTLE_S))
+        groups.setdefault(key, []).append(i)
+    result: list[list[dict]] = [[] for _ in cases]
+    for (config, surface, mount, variant, duration, settle_s), indices in groups.items():
+        m = swivel_model(config, surface, mount, variant)
+        jobs = [(i, seed) for i in indices for seed in seeds]
+        start = time.perf_counter()
+        runs = run_batch([m] * len(jobs),
+                         [(cases[i].get("v_mps", 0.0), cases[i]["omega_deg_s"])
+                          for i, _ in jobs],
+                         duration, settle_s=settle_s, nthread=nthread,
+                         seeds=[seed for _, seed in jobs])
+        for (i, _), run in zip(jobs, runs):
+            result[i].append(robust_features(run))
+        del runs
+        if log:
+            log(f"{config}/{surface}/{mount}/{variant}: {len(jobs)} runs in "
+                f"{time.perf_counter() - start:.1f} s")
+    return result
+
+
+def floor_for(name: str, reference: float | None, mean: float | None) -> float | None:
+    """The resolution floor of a feature's tolerance (see the module docstring)."""
+    if name in FREQUENCY_FEATURES:
+        return welch_bin_hz()
+    if name in LOG_POWER_FEATURES:
+        return LOG_POWER_FLOOR_DECADES
+    base = reference if reference is not None else mean
+    return RELATIVE_FLOOR * abs(base) if base is not None else None
+
+
+def entry(name: str, reference: float | None, repeats: list[float | None]) -> dict:
+    values = np.array([v for v in repeats if v is not None], dtype=float)
+    mean = float(values.mean()) if len(values) else None
+    std = float(values.std(ddof=1)) if len(values) > 1 else None
+    floor = floor_for(name, reference, mean)
+    spread = SIGMAS * std if std is not None else None
+    candidates = [v for v in (spread, floor) if v is not None]
+    tolerance = max(candidates) if candidates else None
+    return {
+        "reference": reference,
+        "repeat_mean": mean,
+        "repeat_std": std,
+        "repeat_min": float(values.min()) if len(values) else None,
+        "repeat_max": float(values.max()) if len(values) else None,
+        "repeats_none": len(repeats) - len(values),
+        "repeats": repeats,  # seeds 1..N, to see outliers and two-regime spreads
+        "floor": floor,
+        "tolerance": tolerance,
+        "tolerance_from": ("3 sigma" if spread is not None and floor is not None
+                           and spread > floor else "floor"),
+    }
+
+
+def case_record(case: dict, features: list[dict], timestep: float) -> dict:
+    """features[0]: the reference run (seed None), features[1:]: the repeats."""
+    reference, repeats = features[0], features[1:]
+    out: dict = {}
+    for name in FEATURES:
+        if name in PER_AXIS_FEATURES:
+            out[name] = {a: entry(name, reference[name][a], [r[name][a] for r in repeats])
+                         for a in AXES}
+        else:
+            out[name] = entry(name, reference[name], [r[name] for r in repeats])
+    return {"name": case_name(case), **case, "timestep_s": timestep, "features": out}
+
+
+def _git(*args: str) -> str | None:
+    try:
+        return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True,
+                              check=True, timeout=30).stdout.rstrip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def _working_tree(out: Path) -> dict:
+    """The commit, git_dirty, the modified tracked files and a hash of `git diff HEAD`,
+    leaving out the golden file itself (best effort: None where git is unavailable)."""
+    try:
+        exclude = ["--", ".", f":(exclude){out.resolve().relative_to(REPO)}"]
+    except ValueError:  # written outside the repository
+        exclude = []
+    status = _git("status", "--porcelain", "--untracked-files=no", *exclude)
+    diff = _git("diff", "HEAD", *exclude)
+    return {
+        "git_commit": _git("rev-parse", "HEAD"),
+        "git_dirty": bool(status) if status is not None else None,
+        "git_modified": [line[3:] for line in status.splitlines()] if status else [],
+        "git_diff_sha256": hashlib.sha256(diff.encode()).hexdigest() if diff else None,
+    }
+
+
+def regenerate_command(out: Path | str = DEFAULT_OUT, trials: int = 8) -> str:
+    return f"python scripts/make_golden_features.py --out {out} --trials {trials}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
+                        help=f"JSON file to write (default {DEFAULT_OUT})")
+    parser.add_argument("--trials", type=int, default=8,
+                        help="seeded repeat trials per case, seeds 1..N (default 8)")
+    parser.add_argument("--nthread", type=int, default=2, help="rollout threads (default 2)")
+    args = parser.parse_args(argv)
+    if args.trials < 2:
+        parser.error("--trials must be at least 2 (a standard deviation needs two repeats)")
+
+    cases = [{"v_mps": 0.0, **c, "mount": MOUNT, "variant": VARIANT,
+              "duration_s": DURATION_S, "settle_s": SETTLE_S} for c in CASES]
+    seeds: list[int | None] = [None, *range(1, args.trials + 1)]
+    log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
+    tree = _working_tree(args.out)  # the code the runs are made with
+    start = time.perf_counter()
+    features = simulate_features(cases, seeds, args.nthread, log)
+    timesteps = {case_name(c): swivel_model(c["config"], c["surface"], c["mount"],
+                                            c["variant"]).opt.timestep for c in cases}
+
+    if _working_tree(args.out) != tree:
+        log("warning: tracked files changed while the runs were simulated; "
+            "the golden values may belong to neither version: regenerate")
+    data = {
+        "schema": SCHEMA,
+        "description": "Golden robust swivel features of simulated runs; "
+                       "tests/test_golden_features.py re-simulates each case's reference "
+                       "run and compares within the tolerances.",
+        "tolerance_rule": {
+            "tolerance": f"max({SIGMAS:g} * repeat_std, floor)",
+            "why_sigma": "the stick-slip swivel is chaotic: repeat trials from a settled state "
+                         f"with a seeded {TRIAL_DEFLECTION_M * 1e3:g} mm residual tire "
+                         "deflection diverge, and so may a re-simulation on another "
+                         "CPU/compiler/libm; 3 sigma of their spread (sample std, "
+                         "ddof = 1) is what such a re-simulation may legitimately differ by",
+            "floor": {
+                "frequencies_hz": f"one Welch bin, {welch_bin_hz():.6g} Hz "
+                                  "(signals.welch_spectrum at 1 kHz): the measurement "
+                                  "resolution",
+                "log10_powers": f"{LOG_POWER_FLOOR_DECADES:g} decades "
+                                f"({10 ** LOG_POWER_FLOOR_DECADES - 1:.0%} in power)",
+                "amplitude_and_yaw_rate": f"{RELATIVE_FLOOR:.0%} of the reference value",
+            },
+        },
+        "features": {
+            "low_band_peak_hz": "Welch PSD maximum in 1-10 Hz, per accelerometer axis (Hz)",
+            "high_band_peak_hz": "Welch PSD maximum in 20-50 Hz, per axis (Hz)",
+            "log10_low_band_power": "log10 of the 1-10 Hz band power, per axis (m^2/s^4)",
+            "log10_high_band_power": "log10 of the 20-50 Hz band power, per axis (m^2/s^4)",
+            "steady_amplitude_m_s2": "(max - min) / 2 of the central 2^14 low-passed "
+                                     "samples, per axis (m/s^2)",
+            "mean_yaw_rate_deg_s": "mean gyro z over the run (deg/s)",
+        },
+        "provenance": {
+            "mujoco_version": mujoco.__version__,
+            "timestep_s": (steps[0] if len(steps := sorted(set(timesteps.values()))) == 1
+                           else steps),
+            **tree,
+            "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "trials": args.trials,
+            "seeds": "reference: None (settled state as is); repeats: 1..trials",
+            "command": shlex.join(["python", "scripts/make_golden_features.py",
+                                   *(argv if argv is not None else sys.argv[1:])]),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "machine": platform.machine(),
+            "elapsed_s": None,
+        },
+        "cases": [case_record(c, f, timesteps[case_name(c)]) for c, f in zip(cases, features)],
+    }
+    data["provenance"]["elapsed_s"] = round(time.perf_counter() - start, 1)
+    text = json.dumps(data, indent=2, allow_nan=False) + "\n"
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    log(f"wrote {args.out} ({len(cases)} cases x {len(seeds)} runs, "
+        f"{data['provenance']['elapsed_s']} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
