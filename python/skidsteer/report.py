@@ -328,7 +328,8 @@ CAUSES = {
         "K_y is one linear stiffness (18 kN/m, the mean of Fig. 3.9's two slopes); a free "
         "response loads the tires laterally by a few newtons, where Fig. 3.9 measures "
         "15 kN/m. With 15 kN/m roll lands at 6.28 Hz (+4 %) but yaw drops 12 % "
-        "(measured sensitivity in the report), so no single K_y fits both."),
+        "(experiments.free_response(axis, tire={'stiffness_y': 15000})), so no single K_y "
+        "fits both."),
     "free_response_decay_yaw": (
         "Yaw damping comes from D_x = 50 and D_y = 30 N s/m (eq. 6.5), which the thesis "
         "tuned on the roll and pitch responses only (Sec. 6.2); yaw was never fitted."),
