@@ -49,11 +49,15 @@ def cmd_swivel(args: argparse.Namespace) -> int:
     print(f"  mean yaw rate        {summary['mean_yaw_rate_deg_s']:.2f} deg/s")
     print(f"  wheel-lift fraction  {summary['wheel_lift_fraction']:.3f}")
     for axis in "xyz":
-        print(f"  a_{axis}: amplitude {features['amplitude_m_s2'][axis]:.3f} m/s^2, "
+        print(f"  a_{axis}: amplitude {features['amplitude_m_s2'][axis]:.3f} m/s^2 "
+              f"(steady {features['steady_amplitude_m_s2'][axis]:.3f}, 1-50 Hz RMS "
+              f"{features['rms_m_s2'][axis]:.4f}), "
               f"main peak {features['main_peak_hz'][axis]:.2f} Hz, "
               f"low band {features['low_band_peak_hz'][axis]:.2f} Hz, "
               f"high band {features['high_band_peak_hz'][axis]:.2f} Hz")
     print(f"  accelerometer log    {out}")
+    print("  (amplitude: Appendix A, whole record incl. the start of the motion; steady: "
+          "central 2^14 samples)")
     return 0
 
 
