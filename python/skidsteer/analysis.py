@@ -63,7 +63,7 @@ def swivel_features(time_s: np.ndarray, accel: np.ndarray) -> dict:
       1-50 Hz, >= 1 Hz apart, of the low-passed central 2^14 samples; heights are
       the one-sided amplitude spectrum 2|X|/L of computeFFT (m/s^2).
     steady_amplitude_m_s2: the same (max - min) / 2 over the central 2^14
-      samples only: the vibration of steady motion, without the start and stop
+      samples only (the edge-trimmed record when it is not longer than that): the vibration of steady motion, without the start and stop
       of the run (a simulated run starts from rest with the recording).
     main_peak_hz: the first of them (Appendix A's fMax).
     low/high_band_peak_hz, low/high_band_power (m^2/s^4), dominant_band and
@@ -85,7 +85,9 @@ def swivel_features(time_s: np.ndarray, accel: np.ndarray) -> dict:
         "sample_rate_hz": fs,
         "samples": int(len(time_s)),
         "amplitude_m_s2": _per_axis(signals.amplitude(low[edge:len(low) - edge])),
-        "steady_amplitude_m_s2": _per_axis(signals.amplitude(signals.central(low))),
+        "steady_amplitude_m_s2": _per_axis(signals.amplitude(
+            signals.central(low) if len(low) >= signals.FFT_SAMPLES + 2 * edge
+            else low[edge:len(low) - edge])),
         "top_peaks_hz": _per_axis(freqs),
         "top_peak_heights": _per_axis(heights),
         "main_peak_hz": _per_axis(freqs[0]),
