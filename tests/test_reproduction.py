@@ -12,10 +12,14 @@ import math
 import pytest
 
 from skidsteer import experiments
-from skidsteer.report import CAUSES, TABLE_5_2
+from skidsteer.report import (CAUSES, DECAY_TARGET_FACTOR as DECAY_FACTOR_TARGET,
+                              FREQUENCY_TARGET, SPIN_STEADY_N, TABLE_5_2)
 
-FREQUENCY_TARGET = 0.10  # issue 3: free-response frequency within 10 % of Table 5.2
-DECAY_FACTOR_TARGET = 1.6  # issue 3: decay rate within a factor 1.6
+# A strict xfail here is an issue-3 target our model misses for the cause in its
+# reason (reported in docs/reproduction/report.md).  Strict: if the target is met one
+# day the test fails, because the report, the README and this reason are then stale.
+# Each has a companion test that pins the miss to what the report states.
+MISSED = "issue 3 target missed (docs/reproduction/report.md); cause: "
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +41,7 @@ def test_free_response_frequency_within_10_percent_of_table_5_2(free_responses, 
     assert _frequency_error(free_responses[axis], axis) <= FREQUENCY_TARGET
 
 
-@pytest.mark.xfail(strict=True, reason="roll +10.1 %: " + CAUSES["free_response_roll"])
+@pytest.mark.xfail(strict=True, reason=MISSED + "roll +10.1 %: " + CAUSES["free_response_roll"])
 def test_roll_frequency_within_10_percent_of_table_5_2(free_responses):
     assert _frequency_error(free_responses["roll"], "roll") <= FREQUENCY_TARGET
 
@@ -52,9 +56,16 @@ def test_free_response_decay_within_factor_1_6(free_responses, axis):
     assert _decay_factor(free_responses[axis], axis) <= DECAY_FACTOR_TARGET
 
 
-@pytest.mark.xfail(strict=True, reason=CAUSES["free_response_decay_yaw"])
+@pytest.mark.xfail(strict=True, reason=MISSED + CAUSES["free_response_decay_yaw"])
 def test_yaw_decay_within_factor_1_6(free_responses):
     assert _decay_factor(free_responses["yaw"], "yaw") <= DECAY_FACTOR_TARGET
+
+
+def test_yaw_decay_miss_is_underdamping(free_responses):
+    # the documented miss: yaw decays slower than measured (x1.73), from eq. 6.5's
+    # D_x, D_y tuned on roll and pitch only; faster than measured would be another cause
+    assert free_responses["yaw"]["decay_per_s"] < TABLE_5_2["yaw"]["decay_per_s"]
+    assert DECAY_FACTOR_TARGET < _decay_factor(free_responses["yaw"], "yaw") < 2.0
 
 
 @pytest.fixture(scope="module")
@@ -94,10 +105,23 @@ def test_longitudinal_pull_slope_is_four_belts_in_series_with_the_cable():
     assert result["max_force_N"] / 0.006 == pytest.approx(expected, rel=0.05)
 
 
-@pytest.mark.xfail(strict=True, reason=CAUSES["spin_force"])
-def test_spinning_wheels_lateral_force_is_20_to_30_newtons():
-    result = experiments.pull("lateral", 0.0, "spinning", 0.04)
-    assert 20 <= result["steady_force_N"] <= 30
+@pytest.fixture(scope="module")
+def spinning_pull():
+    return experiments.pull("lateral", 0.0, "spinning", 0.04)
+
+
+@pytest.mark.xfail(strict=True, reason=MISSED + CAUSES["spin_force"])
+def test_spinning_wheels_lateral_force_is_20_to_30_newtons(spinning_pull):
+    assert SPIN_STEADY_N[0] <= spinning_pull["steady_force_N"] <= SPIN_STEADY_N[1]
+
+
+def test_spinning_wheels_lateral_force_miss_is_too_little_friction(spinning_pull):
+    # the documented miss: below the measured 20 N, yet above what eq. 4.12b gives a
+    # platform sliding steadily at 1 mm/s (mu_y = 0.001 / 0.04 -> 0.025 mu_k N ~ 4.4 N):
+    # the rest is the robot's own lateral jitter, as the report states
+    weight = spinning_pull["normal_force_sum_N"]
+    steady_slide = 0.001 / 0.04 * 0.786 * weight
+    assert steady_slide < spinning_pull["steady_force_N"] < SPIN_STEADY_N[0]
 
 
 def test_spinning_wheels_lateral_force_falls_with_slip():

@@ -205,6 +205,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from skidsteer.measured import MOUNTS
     from skidsteer.models import BUILDS, FLOORS, VARIANTS
 
     parser = argparse.ArgumentParser(prog="skidsteer", description=__doc__)
@@ -223,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--omega", type=float, default=30.0, help="commanded yaw rate, deg/s")
     p.add_argument("--duration", type=float, default=20.0, help="recorded time, s")
     p.add_argument("--settle", type=float, default=2.0, help="settling time before, s")
-    p.add_argument("--mount", choices=("platform", "wheel"), default="platform",
+    p.add_argument("--mount", choices=MOUNTS, default="platform",
                    help="accelerometer cube on the platform (p_a) or on wheel 1")
     p.add_argument("--out", help="accelerometer log, .csv or LabVIEW .xlsx (measured-data layout)")
     common(p)
@@ -258,7 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--surface", choices=FLOORS, action="append", help="repeatable (default: all)")
     p.add_argument("--config", choices=sorted(BUILDS), action="append",
                    help="repeatable (default: extended)")
-    p.add_argument("--mount", choices=("platform", "wheel"), default="platform")
+    p.add_argument("--mount", choices=MOUNTS, default="platform")
     p.add_argument("--variant", choices=VARIANTS, default="ours")
     p.add_argument("--trials", type=int, default=1, help="repeats per command (seeded)")
     p.add_argument("--seed", type=int, default=0)

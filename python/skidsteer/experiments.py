@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 from scipy import signal
 
+from skidsteer.measured import MOUNTS
 from skidsteer.models import load_model
 from skidsteer.simulation import (DriveGeometry, LOG_RATE_HZ, Run, decimate, rollout,
                                   run_commanded, sensor_slice, settle)
@@ -26,7 +27,6 @@ GRAVITY = 9.81
 FREE_RESPONSE_AXES = {"roll": 1, "pitch": 0, "yaw": 1}  # accelerometer axis the thesis read
 COMPRESSION_OFFSET_M = 0.001  # Sec. 6.2: z_init = -mg/(4 K_z) -/+ 0.001 m per side
 YAW_TWIST_RAD = 0.002  # assumed: "slightly turning the robot" (Sec. 5.2); linear regime
-FREE_RESPONSE_SAMPLES = 2**11  # Sec. 5.2: first 2^11 samples at 1 kHz
 
 
 def _rotate_about(d: mujoco.MjData, root_qpos: int, center: np.ndarray, axis: np.ndarray,
@@ -78,7 +78,7 @@ def free_response(axis: str = "roll", *, config: str = "extended", surface: str 
                   variant: str = "ours", tire: dict | None = None, settle_s: float = 2.0,
                   include_signal: bool = False) -> dict:
     """Release as Sec. 6.2, analyse as Sec. 5.2: peak frequency and decay rate."""
-    from skidsteer.analysis import free_response_features
+    from skidsteer.analysis import FREE_RESPONSE_SAMPLES, free_response_features
 
     if axis not in FREE_RESPONSE_AXES:
         raise ValueError(f"unknown free-response axis {axis!r}: use roll, pitch or yaw")
@@ -111,51 +111,51 @@ FORCE_RESOLUTION_N = 2.0  # Sec. 4.1: ~2 N "is nearly the accuracy of the force 
 SLACK_M = 1e-3  # cable slack at the start: the machine takes it up in 1 s
 
 
+def _add_spring_cable(spec: mujoco.MjSpec, name: str, robot_pos, anchor_pos,
+                      damping: float, pull_only: bool) -> None:
+    """A straight tendon from a chassis point to a world point, driven by a
+    spring-damper actuator: force = K (ctrl - L) - D dL/dt, ctrl = rest length.
+    pull_only clamps the whole force to <= 0, a cable that only pulls (the
+    thesis's saturation of the cable force, Sec. 6.1)."""
+    spec.body("chassis").add_site(name=f"{name}_robot", pos=list(robot_pos), size=[0.01, 0, 0])
+    spec.worldbody.add_site(name=f"{name}_anchor", pos=list(anchor_pos), size=[0.01, 0, 0])
+    tendon = spec.add_tendon(name=name)
+    tendon.wrap_site(f"{name}_robot")
+    tendon.wrap_site(f"{name}_anchor")
+    limits = ({"forcelimited": mujoco.mjtLimited.mjLIMITED_TRUE, "forcerange": [-1e9, 0]}
+              if pull_only else {})
+    spec.add_actuator(name=name, trntype=mujoco.mjtTrn.mjTRN_TENDON, target=name,
+                      gainprm=[CABLE_STIFFNESS] + [0] * 9,
+                      biastype=mujoco.mjtBias.mjBIAS_AFFINE,
+                      biasprm=[0, -CABLE_STIFFNESS, -damping] + [0] * 7, **limits)
+
+
 def _cable_rig(direction: str, height_m: float, wheels: str, mass_estimate: float,
                slip_speed: float):
     """edit(spec) that adds the testing machine's cable (and locks or a tether)."""
     def edit(spec: mujoco.MjSpec) -> None:
-        chassis = spec.body("chassis")
-        z_local = height_m - 0.23  # chassis frame at the CoM, 0.23 m above the floor
+        com_height = float(spec.body("chassis").pos[2])  # chassis frame at the CoM (Table 5.1)
         damping = 4 * math.sqrt(mass_estimate * CABLE_STIFFNESS)  # Sec. 6.1: D = 4 sqrt(m K)
         pull = np.array([0.0, 1.0, 0.0]) if direction == "lateral" else np.array([-1.0, 0, 0])
-        chassis.add_site(name="cable_robot", pos=[0, 0, z_local], size=[0.01, 0, 0])
-        spec.worldbody.add_site(name="cable_anchor",
-                                pos=(CABLE_ANCHOR_DISTANCE * pull + [0, 0, height_m]).tolist(),
-                                size=[0.01, 0, 0])
-        cable = spec.add_tendon(name="cable")
-        cable.wrap_site("cable_robot")
-        cable.wrap_site("cable_anchor")
-        # force = K (ctrl - L) - D dL/dt, clamped to <= 0: a cable only pulls
-        # (the thesis's saturation of the whole force, Sec. 6.1)
-        spec.add_actuator(name="testing_machine", trntype=mujoco.mjtTrn.mjTRN_TENDON,
-                          target="cable", gainprm=[CABLE_STIFFNESS] + [0] * 9,
-                          biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-                          biasprm=[0, -CABLE_STIFFNESS, -damping] + [0] * 7,
-                          forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-                          forcerange=[-1e9, 0])
+        _add_spring_cable(spec, "cable", [0, 0, height_m - com_height],
+                          CABLE_ANCHOR_DISTANCE * pull + [0, 0, height_m], damping,
+                          pull_only=True)
         spec.add_sensor(name="cable_force", type=mujoco.mjtSensor.mjSENS_ACTUATORFRC,
-                        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname="testing_machine")
-        spec.add_sensor(name="cable_length", type=mujoco.mjtSensor.mjSENS_TENDONPOS,
-                        objtype=mujoco.mjtObj.mjOBJ_TENDON, objname="cable")
+                        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname="cable")
         if wheels == "locked":
-            # the motors hold the hubs; belt compliance stays in the tire law (Sec. 3.3)
+            # the motors hold the hubs; belt compliance stays in the tire law (Sec. 3.3).
+            # solref time constant 1 ms = 10 steps: stiff enough that the locks add < 1 %
+            # to the belts' compliance (longitudinal ramp 11.77 vs 4 K_belt in series with
+            # the cable 11.86 kN/m, tests/test_reproduction.py)
             for axle in ("axle1", "axle2", "axle3", "axle4"):
                 spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=axle,
                                   solref=[0.001, 1])
         elif slip_speed != 0:
-            # spinning wheels push the robot forward; a stiff tether at CoM height
-            # holds it in place, as the thesis cancels that force (Sec. 6.2)
-            chassis.add_site(name="tether_robot", pos=[0, 0, 0], size=[0.01, 0, 0])
-            spec.worldbody.add_site(name="tether_anchor", pos=[-CABLE_ANCHOR_DISTANCE, 0, 0.23],
-                                    size=[0.01, 0, 0])
-            tether = spec.add_tendon(name="tether")
-            tether.wrap_site("tether_robot")
-            tether.wrap_site("tether_anchor")
-            spec.add_actuator(name="tether", trntype=mujoco.mjtTrn.mjTRN_TENDON,
-                              target="tether", gainprm=[CABLE_STIFFNESS] + [0] * 9,
-                              biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-                              biasprm=[0, -CABLE_STIFFNESS, -damping] + [0] * 7)
+            # spinning wheels push the robot forward; a stiff two-sided tether at CoM
+            # height holds it in place, as the thesis cancels that force (Sec. 6.2)
+            _add_spring_cable(spec, "tether", [0, 0, 0],
+                              [-CABLE_ANCHOR_DISTANCE, 0, com_height], damping,
+                              pull_only=False)
     return edit
 
 
@@ -202,7 +202,7 @@ def pull(direction: str = "lateral", height_m: float = 0.0, wheels: str = "locke
                                    slip_velocity_mps if wheels == "spinning" else 0.0))
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    machine = m.actuator("testing_machine").id
+    machine = m.actuator("cable").id
     length0 = float(d.ten_length[m.tendon("cable").id])
     ctrl = np.zeros(m.nu)
     ctrl[machine] = length0 + SLACK_M
@@ -319,7 +319,7 @@ def _wheel_mount(spec: mujoco.MjSpec) -> None:
 
 def swivel_model(config: str = "extended", surface: str = "concrete", mount: str = "platform",
                  variant: str = "ours", tire: dict | None = None) -> mujoco.MjModel:
-    if mount not in ("platform", "wheel"):
+    if mount not in MOUNTS:
         raise ValueError(f"unknown accelerometer mount {mount!r}: use platform or wheel")
     return load_model(config, surface, tire=tire, variant=variant,
                       edit=_wheel_mount if mount == "wheel" else None)

@@ -22,7 +22,7 @@ AXES = "xyz"
 PEAK_KEYS = ("main_peak_hz", "low_band_peak_hz", "high_band_peak_hz")
 
 
-def _save(fig, path) -> Path:
+def save(fig, path) -> Path:
     try:
         return write_atomically(Path(path), lambda tmp: fig.savefig(tmp, format="png", dpi=DPI))
     finally:
@@ -76,7 +76,7 @@ def plot_run(time_s: np.ndarray, accel: np.ndarray, features: dict, path) -> Pat
     axs[-1, 0].set_xlabel("time (s)")
     axs[-1, 1].set_xlabel("frequency (Hz)")
     fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def _mean_std(row: dict, key: str, axis: str) -> tuple[float, float]:
@@ -123,7 +123,7 @@ def plot_features_vs_omega(summary_rows: list[dict], path, quantity: str = "peak
         axs[-1, j].set_xlabel("omega_z (deg/s)")
     axs[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_free_response(time_s: np.ndarray, signal: np.ndarray, features: dict, path,
@@ -159,4 +159,4 @@ def plot_free_response(time_s: np.ndarray, signal: np.ndarray, features: dict, p
     ax1.legend(fontsize=7)
     ax1.grid(True, lw=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)

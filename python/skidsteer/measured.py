@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from skidsteer.datafiles import CSV_HEADER, write_accelerometer_csv, write_atomically
+from skidsteer.models import BUILDS, FLOORS
 
 SENSOR_RANGE_M_S2 = 1.7 * 9.8  # SCA620: +-1.7 g
 SATURATION_FRACTION = 0.999  # |a| at or above this fraction of the range is saturated
@@ -36,8 +37,8 @@ HEADER_ROWS = 10  # LabVIEW export header; data from row 11
 SHEET_AXES = ("z", "y", "x")  # sheet order in the LabVIEW export (parseData reads sheet 4-i)
 CSV_COLUMNS = tuple(CSV_HEADER.split(","))
 
-SURFACES = ("concrete", "tile", "carpet")
-CONFIGS = ("extended", "platform")
+SURFACES = FLOORS  # the floors the simulation has parameter sets for
+CONFIGS = tuple(BUILDS)
 MOUNTS = ("platform", "wheel")
 RUNS_REQUIRED = ("file", "v_mps", "omega_deg_s", "surface", "config", "mount", "trial")
 RUNS_ACCEL = ("accel_x_m", "accel_y_m", "accel_z_m")

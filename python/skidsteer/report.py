@@ -440,7 +440,7 @@ def _json_default(value):
 
 
 def plot_pull_traces(rows: list[dict], path: Path) -> Path:
-    from skidsteer.figures import _save, plt
+    from skidsteer.figures import plt, save
 
     fig, axs = plt.subplots(1, 2, figsize=(12, 4), sharey=True)
     for ax, variant in zip(axs, ("ours", "thesis")):
@@ -456,11 +456,11 @@ def plot_pull_traces(rows: list[dict], path: Path) -> Path:
     axs[0].set_ylabel("cable force (N)")
     axs[0].legend(fontsize=7)
     fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_spinning(rows: list[dict], path: Path) -> Path:
-    from skidsteer.figures import _save, plt
+    from skidsteer.figures import plt, save
 
     fig, ax = plt.subplots(figsize=(6, 4))
     for variant in ("ours", "thesis"):
@@ -474,7 +474,7 @@ def plot_spinning(rows: list[dict], path: Path) -> Path:
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def summary_rows(results: dict) -> list[tuple[str, str, str, str, str]]:
@@ -507,12 +507,11 @@ def summary_rows(results: dict) -> list[tuple[str, str, str, str, str]]:
     rows.append(("lateral force, wheels spinning at 0.04 m/s (N)", "20-30",
                  f"{t['steady_force_N']:.1f}", f"{o['steady_force_N']:.1f}",
                  "met" if ok else "missed"))
-    for variant_rows, label in ((results["swivel"]["features"]["ours"], "ours"),):
-        n_ok = sum(1 for r in variant_rows if r["reproduced"])
-        n_th = sum(1 for r in results["swivel"]["features"]["thesis"] if r["reproduced"])
-        rows.append(("Sec. 3.2 swivel features reproduced", "-",
-                     f"{n_th} of {len(results['swivel']['features']['thesis'])}",
-                     f"{n_ok} of {len(variant_rows)}", "see report"))
+    features = results["swivel"]["features"]
+    count = {v: f"{sum(1 for r in features[v] if r['reproduced'])} of {len(features[v])}"
+             for v in ("thesis", "ours")}
+    rows.append(("Sec. 3.2 swivel features reproduced", "-", count["thesis"], count["ours"],
+                 "see report"))
     return rows
 
 
