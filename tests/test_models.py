@@ -62,7 +62,12 @@ def test_frame_parts_match_the_derivation(extended_model):
     for name, mass, position, inertia in derivation.parts():
         body = m.body(name)
         assert body.mass[0] == pytest.approx(mass, rel=1e-9), name
-        np.testing.assert_allclose(m.body_pos[body.id], position, atol=1e-9, err_msg=name)
+        # position from the CoM (chassis frame); the frame parts hang from the
+        # "frame" body at the mast's foot
+        parent = m.body_parentid[body.id]
+        from_com = m.body_pos[body.id] + (m.body_pos[parent] if parent != 1 else 0)
+        assert m.body(parent).name in ("chassis", "frame"), name
+        np.testing.assert_allclose(from_com, position, atol=1e-9, err_msg=name)
         np.testing.assert_allclose(np.sort(body.inertia), np.sort(np.diag(inertia)), rtol=1e-6,
                                    err_msg=name)
     platform = derivation.derive()
@@ -71,7 +76,7 @@ def test_frame_parts_match_the_derivation(extended_model):
 
 def test_platform_is_the_extended_robot_without_the_frame(extended_model, platform_model):
     ext, plat = extended_model, platform_model
-    frame_parts = {"mast", "laptop", "camera"}
+    frame_parts = {"frame", "mast", "laptop", "camera"}
     ext_bodies = {ext.body(b).name for b in range(ext.nbody)}
     plat_bodies = {plat.body(b).name for b in range(plat.nbody)}
     assert ext_bodies - plat_bodies == frame_parts

@@ -197,6 +197,64 @@ def cmd_tire_loads(args: argparse.Namespace) -> int:
     return 0
 
 
+def _dataset_error(err: Exception) -> int:
+    print(f"skidsteer: {err}", file=sys.stderr)
+    return 2
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from skidsteer.diagnosis import compare
+    from skidsteer.measured import DataError
+
+    try:
+        result = compare(args.dataset, args.out, model=args.model, nthread=args.threads,
+                         progress=not args.no_progress, timestep=args.timestep,
+                         figures=not args.no_figures)
+    except (DataError, ValueError, FileNotFoundError) as err:
+        return _dataset_error(err)
+    if args.json:
+        _print_json(result)
+        return 0
+    print(f"base model error {result['baseline_error_all_runs']:.2f} (RMS z against the "
+          f"trials' spread): {result['verdict']}; report: {args.out}/report.md")
+    for d in result["discrepancies"][:5]:
+        print(f"  {d['group']}: {d['feature']} measured {d['measured']:.3g} simulated "
+              f"{d['simulated']:.3g} (z {d['z']:+.1f})")
+    for s in result["skipped_runs"]:
+        print(f"  skipped {s.get('file')}: {s.get('reason')}")
+    return 0
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from skidsteer.diagnosis import diagnose
+    from skidsteer.measured import DataError
+
+    try:
+        result = diagnose(args.dataset, args.out, model=args.model,
+                          candidates=args.cause or None, nthread=args.threads,
+                          progress=not args.no_progress, timestep=args.timestep,
+                          figures=not args.no_figures)
+    except (DataError, ValueError, FileNotFoundError) as err:
+        return _dataset_error(err)
+    if args.json:
+        _print_json(result)
+        return 0
+    g = result["gain"]
+    cause = f" cause: {result['cause']}" if result["cause"] else ""
+    print(f"verdict: {result['verdict']}{cause}")
+    print(f"  {result['reason']}")
+    for name, value in result["parameters"].items():
+        interval = result["intervals"].get(name)
+        extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g})" if interval else ""
+        print(f"  {name} = {value:.4g}{extra}")
+    print(f"gain on held-out runs: error {g['baseline_error']:.2f} -> {g['extended_error']:.2f}"
+          f" ({g['relative_reduction']:.0%} less, {g['extended_cause'] or 'no cause'})")
+    for s in result["skipped_runs"]:
+        print(f"  skipped {s.get('file')}: {s.get('reason')}")
+    print(f"report: {args.out}/report.md ({result['wall_time_s']} s)")
+    return 0
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     from skidsteer.viewer import launch
 
@@ -288,6 +346,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--surface", choices=FLOORS, default="concrete")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_tire_loads)
+
+    for name, func, text in (
+            ("compare", cmd_compare, "simulate a measured dataset's runs; where they disagree"),
+            ("diagnose", cmd_diagnose, "name the cause of a dataset's discrepancies, fit it, "
+                                       "measure the gain")):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("dataset", help="dataset directory (../shared/spec/measured-data.md)")
+        p.add_argument("--out", default=f"{name}-out", help="output directory")
+        p.add_argument("--model", default=None,
+                       help="your robot's MJCF file (default: the built-in build of each run)")
+        if name == "diagnose":
+            p.add_argument("--cause", action="append",
+                           help="fit only this candidate (repeatable; default: all)")
+        p.add_argument("--timestep", type=float, default=None, help="simulation time step, s")
+        p.add_argument("--threads", type=int, default=2)
+        p.add_argument("--no-progress", action="store_true")
+        p.add_argument("--no-figures", action="store_true")
+        p.add_argument("--json", action="store_true")
+        p.set_defaults(func=func)
 
     p = sub.add_parser("view", help="open a model in MuJoCo's interactive viewer")
     p.add_argument("model", nargs="?", default="extended",

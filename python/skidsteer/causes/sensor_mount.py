@@ -1,0 +1,44 @@
+"""sensor_mount: the accelerometer cube is taped on, with its own resonance.
+
+The wood cube with the three SCA620s (Sec. 3.2) is fixed with tape; the cause
+puts it on a three-axis spring-damper at the sensor's site, tuned by the
+mount's natural frequency, and moves the accelerometer (and gyro) onto it.
+"""
+
+import mujoco
+import numpy as np
+
+from skidsteer.causes import Cause, NotApplicable, Parameter, critical_damping, sensor_site
+
+CUBE_MASS_KG = 0.1  # assumed: a 4 cm wood cube (~40 g) with three SCA620 boards and cables
+FREQUENCY = Parameter(
+    "frequency_hz", 15.0, 50.0, 27.0, log=True,
+    source="assumed: double-sided foam tape under a 0.1 kg cube resonates at tens of Hz; the "
+           "upper bound is Appendix A's 50 Hz low-pass, above which the analysis sees nothing")
+DAMPING_RATIO = Parameter(
+    "damping_ratio", 0.02, 0.2, 0.05, log=True,
+    source="assumed: foam tape, 2-20 % of critical")
+
+
+def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
+    site = sensor_site(spec, "accelerometer")
+    parent = site.parent
+    if parent is None:
+        raise NotApplicable("sensor_mount: the accelerometer's site has no body")
+    k = CUBE_MASS_KG * (2 * np.pi * params["frequency_hz"]) ** 2
+    c = critical_damping(k, CUBE_MASS_KG, params["damping_ratio"])
+    cube = parent.add_body(name="sensor_cube", pos=list(site.pos), quat=list(site.quat))
+    cube.add_geom(name="sensor_cube", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 0.02, 0.02],
+                  mass=CUBE_MASS_KG, contype=0, conaffinity=0, group=3)
+    for axis, name in (([1, 0, 0], "cube_x"), ([0, 1, 0], "cube_y"), ([0, 0, 1], "cube_z")):
+        cube.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, stiffness=k,
+                       damping=c)
+    cube.add_site(name="sensor_cube_site")
+    for name in ("accelerometer", "gyro"):
+        sensor = spec.sensor(name)
+        if sensor is not None:
+            sensor.objname = "sensor_cube_site"
+
+
+CAUSE = Cause("sensor_mount", "the accelerometer cube resonates on its tape",
+              FREQUENCY, (DAMPING_RATIO,), apply, recovery_factor=1.25, null_value=50.0)

@@ -1,0 +1,352 @@
+"""Measured runs against simulated ones: the features, their noise, the discrepancies.
+
+Data flow: a dataset's runs are grouped by command and setup (repeated trials
+form one group); each group is simulated once (``simulate_groups``) and passed
+through the sensor's bandwidth (sensor_chain); both sides are reduced to the
+same feature vector (``run_features``); ``Comparison`` scores a simulation
+against the measurements in units of the trials' spread.
+
+The feature vector, per axis of the cube:
+- log10 band powers of the start-up window (the first seconds after the
+  command, which ring the robot's modes the way the thesis's free responses
+  do, Sec. 5.2) and of the steady window (Sec. 3.2's swivel vibration);
+- the steady mean of a_x, the centripetal acceleration of a cube 0.2 m behind
+  the yaw axis, which carries the achieved yaw rate (the recordings have no gyro).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+from scipy import signal
+
+from skidsteer.measured import Dataset, RunInfo
+from skidsteer.sensor_chain import SensorChain
+from skidsteer.simulation import DriveGeometry, Run, _run_from_rollout, settle
+
+AXES = "xyz"
+START_WINDOW_S = 3.0  # ramp (<= 0.64 s at 64 deg/s) plus ~2 decay times of the slowest mode
+STEADY_FROM_S = 4.0  # the steady window runs from here to the end of the record
+BAND_EDGES_HZ = (1.0, 2.0, 3.0, 4.5, 6.5, 9.0, 12.5, 17.0, 23.0, 31.0, 42.0, 55.0)
+STEADY_LOW_EDGES_HZ = (0.25, 0.5)  # steady window only: wheel-rotation rates (0.05-0.5 Hz)
+START_NPERSEG = 1024  # ~1 Hz bins
+STEADY_NPERSEG = 4096  # 0.24 Hz bins (at most the steady window)
+# The smallest spread a log10 band power is credited with: a Welch estimate of a
+# band of b bins from K segments scatters by ~0.434/sqrt(K b) decades; the
+# narrowest bands of the start window (b ~ 1, K ~ 5) give 0.2, the wider ones
+# less: 0.1 decade (26 % in power) is the resolution of the estimator.
+LOG_POWER_RESOLUTION = 0.1
+# The smallest spread of the centripetal mean: +-1 deg/s at 30 deg/s moves it by
+# 2 omega d_omega |x_a| = 0.004 m/s^2; a smaller difference is not a yaw-rate finding.
+CENTRIPETAL_RESOLUTION_M_S2 = 0.004
+SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds this
+
+
+def _edges(window: str) -> tuple[float, ...]:
+    return (STEADY_LOW_EDGES_HZ + BAND_EDGES_HZ) if window == "steady" else BAND_EDGES_HZ
+
+
+def feature_names() -> list[str]:
+    names = []
+    for window in ("start", "steady"):
+        edges = _edges(window)
+        for axis in AXES:
+            names += [f"{window}_a{axis}_{lo:g}-{hi:g}Hz" for lo, hi in zip(edges[:-1], edges[1:])]
+    return names + ["centripetal_ax_m_s2"]
+
+
+N_POWER = len(feature_names()) - 1
+
+
+def _band_powers(x: np.ndarray, fs: float, nperseg: int, edges) -> np.ndarray:
+    nperseg = min(nperseg, len(x))
+    freq, psd = signal.welch(x, fs, nperseg=nperseg, axis=0, detrend="constant")
+    df = freq[1] - freq[0]
+    out = np.empty((len(edges) - 1, x.shape[1]))
+    for i, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+        sel = (freq >= lo) & (freq < hi)
+        out[i] = psd[sel].sum(axis=0) * df if sel.any() else np.nan
+    return out.T.ravel()  # axis-major: x bands, y bands, z bands
+
+
+def run_features(time_s: np.ndarray, accel: np.ndarray) -> np.ndarray:
+    """The feature vector of one record starting at the command: powers in (m/s^2)^2, then
+    the centripetal mean in m/s^2."""
+    fs = (len(time_s) - 1) / float(time_s[-1] - time_s[0])
+    t = time_s - time_s[0]
+    if t[-1] < STEADY_FROM_S + STEADY_NPERSEG / fs / 2:
+        raise ValueError(f"record of {t[-1]:.1f} s is too short: the diagnosis needs at least "
+                         f"{STEADY_FROM_S + STEADY_NPERSEG / fs / 2:.1f} s")
+    start = accel[t < START_WINDOW_S]
+    steady = accel[t >= STEADY_FROM_S]
+    return np.concatenate([
+        _band_powers(start, fs, START_NPERSEG, _edges("start")),
+        _band_powers(steady, fs, STEADY_NPERSEG, _edges("steady")),
+        [steady[:, 0].mean()],
+    ])
+
+
+# --------------------------------------------------------------------- groups
+
+@dataclasses.dataclass(frozen=True)
+class Setup:
+    surface: str
+    config: str
+    mount: str
+    accel_position_m: tuple[float, float, float] | None
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """Runs of one command on one setup: the repeated trials."""
+
+    v_mps: float
+    omega_deg_s: float
+    setup: Setup
+
+    @property
+    def label(self) -> str:
+        s = self.setup
+        return (f"v{self.v_mps:g}-w{self.omega_deg_s:g} {s.surface} {s.config}"
+                + (" on-wheel" if s.mount == "wheel" else ""))
+
+
+def group_of(info: RunInfo) -> Group:
+    return Group(info.v_mps, info.omega_deg_s,
+                 Setup(info.surface, info.config, info.mount, info.accel_position_m))
+
+
+@dataclasses.dataclass
+class Observed:
+    """The measured side: features of every usable run, grouped."""
+
+    groups: list[Group]
+    run_group: np.ndarray  # (n_runs,) index into groups
+    run_files: list[str]
+    features: np.ndarray  # (n_runs, n_features)
+    duration_s: float  # the records' common length (the shortest)
+    skipped: list[dict]
+    records: list[tuple[np.ndarray, np.ndarray]]  # (time_s, accel) per run
+
+    @classmethod
+    def from_dataset(cls, dataset: Dataset) -> "Observed":
+        groups: list[Group] = []
+        run_group, files, feats, durations, records = [], [], [], [], []
+        skipped = list(dataset.skipped)
+        for info, rec in dataset.runs:
+            if rec is None:
+                continue
+            try:
+                f = run_features(rec.time_s, rec.accel)
+            except ValueError as err:
+                skipped.append({"file": info.file, "reason": f"{rec.path}: {err}"})
+                continue
+            g = group_of(info)
+            if g not in groups:
+                groups.append(g)
+            run_group.append(groups.index(g))
+            files.append(info.file)
+            feats.append(f)
+            durations.append(float(rec.time_s[-1] - rec.time_s[0]))
+            records.append((rec.time_s, rec.accel))
+        if not feats:
+            raise ValueError(f"{dataset.root}: no usable runs (skipped: "
+                             f"{[s['file'] for s in skipped]})")
+        order = sorted(range(len(groups)), key=lambda i: (groups[i].setup.surface,
+                                                          groups[i].setup.config,
+                                                          groups[i].setup.mount,
+                                                          groups[i].v_mps,
+                                                          groups[i].omega_deg_s))
+        remap = {old: new for new, old in enumerate(order)}
+        return cls([groups[i] for i in order], np.array([remap[g] for g in run_group]), files,
+                   np.array(feats), min(durations), skipped, records)
+
+    def noise_floor(self) -> np.ndarray:
+        """Per band power, the quietest run's: the sensor chain's floor wherever at least
+        one run carries no vibration in that band."""
+        return np.nanmin(self.features[:, :N_POWER], axis=0)
+
+    def log_features(self) -> np.ndarray:
+        out = self.features.copy()
+        out[:, :N_POWER] = np.log10(np.maximum(out[:, :N_POWER], 1e-30))
+        return out
+
+    def scales(self) -> np.ndarray:
+        """Per feature, the trials' spread (pooled within groups, ddof 1), at least
+        the estimator's resolution."""
+        logf = self.log_features()
+        var, dof = np.zeros(logf.shape[1]), 0
+        for gi in range(len(self.groups)):
+            rows = logf[self.run_group == gi]
+            if len(rows) > 1:
+                var += ((rows - rows.mean(axis=0)) ** 2).sum(axis=0)
+                dof += len(rows) - 1
+        spread = np.sqrt(var / dof) if dof else np.zeros(logf.shape[1])
+        floor = np.full(logf.shape[1], LOG_POWER_RESOLUTION)
+        floor[-1] = CENTRIPETAL_RESOLUTION_M_S2
+        return np.maximum(np.nan_to_num(spread), floor)
+
+
+# ------------------------------------------------------------------ simulation
+
+@dataclasses.dataclass
+class Simulated:
+    """One simulated record per group, as the sensor sees it."""
+
+    time_s: list[np.ndarray]
+    accel: list[np.ndarray]
+    mean_yaw_rate_deg_s: list[float]
+    features: np.ndarray  # (n_groups, n_features)
+
+
+ModelFactory = Callable[[Setup], mujoco.MjModel]
+
+
+def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: float,
+                    chain: SensorChain = SensorChain(), settle_s: float = 2.0,
+                    nthread: int = 2, progress: Callable[[int], None] | None = None
+                    ) -> list[Simulated]:
+    """For each (model factory, groups) job, each group simulated once from rest.
+
+    Models are built once per (job, setup); the (model, group) runs step in C
+    through mujoco.rollout, nthread at a time (rollout releases the GIL).
+    """
+    tasks = []  # (job index, group index, model, settled state)
+    models: dict[tuple[int, Setup], tuple[mujoco.MjModel, np.ndarray]] = {}
+    for j, (factory, groups) in enumerate(jobs):
+        for k, g in enumerate(groups):
+            key = (j, g.setup)
+            if key not in models:
+                m = factory(g.setup)
+                models[key] = (m, None)
+            tasks.append((j, k, key))
+
+    def settled(key):
+        m, state = models[key]
+        if state is None:
+            state = settle(m, mujoco.MjData(m), settle_s)
+            models[key] = (m, state)
+        return m, state
+
+    for key in list(models):  # settle once per model (cheap: 2 s of rest)
+        settled(key)
+
+    def one(task):
+        j, k, key = task
+        m, state = models[key]
+        g = jobs[j][1][k]
+        nstep = int(round(duration_s / m.opt.timestep))
+        ctrl = DriveGeometry.from_model(m).ramp(m, g.v_mps, g.omega_deg_s, nstep)
+        states, sensors = mujoco.rollout.rollout(m, mujoco.MjData(m), state[None], ctrl[None],
+                                                 nstep=nstep)
+        run: Run = _run_from_rollout(m, states[0], sensors[0], ctrl[-1], state[0])
+        time_s, accel = chain.log(run)
+        return j, k, time_s, accel, run.mean_yaw_rate_deg_s()
+
+    results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
+                         np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
+    with ThreadPoolExecutor(max_workers=max(1, nthread)) as pool:
+        for j, k, time_s, accel, yaw in pool.map(one, tasks):
+            r = results[j]
+            r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
+            r.features[k] = run_features(time_s, accel)
+            if progress:
+                progress(1)
+    return results
+
+
+# ------------------------------------------------------------------ comparison
+
+@dataclasses.dataclass
+class Comparison:
+    """Scores simulations against one set of measurements, in units of the trials' spread."""
+
+    observed: Observed
+
+    def __post_init__(self):
+        self.floor = self.observed.noise_floor()
+        self.scale = self.observed.scales()
+        self.measured = self.observed.log_features()
+
+    def simulated_log(self, sim_features: np.ndarray) -> np.ndarray:
+        """Simulated features as the measurement would show them: the sensor chain's
+        noise floor added to every band power."""
+        out = np.array(sim_features, dtype=float)
+        out[:, :N_POWER] = np.log10(out[:, :N_POWER] + self.floor)
+        return out
+
+    def z_scores(self, sim_features: np.ndarray, runs: np.ndarray,
+                 bias_runs: np.ndarray | None = None,
+                 extra_spread: np.ndarray | None = None) -> np.ndarray:
+        """(len(runs), n_features): (simulated - measured) / spread per run.
+
+        The centripetal mean carries the sensor's unknown zero-g error on a_x (a
+        constant for the dataset); it is removed as the median difference over
+        bias_runs (default: runs), the way a fit removes a nuisance offset.
+        extra_spread: the simulation's own uncertainty per feature (realisations of a
+        random geometry), added in quadrature to the trials' spread.
+        """
+        sim = self.simulated_log(sim_features)[self.observed.run_group]
+        diff = sim - self.measured
+        bias_runs = runs if bias_runs is None else bias_runs
+        diff[:, -1] -= np.median(diff[bias_runs, -1])
+        scale = self.scale if extra_spread is None else np.hypot(self.scale, extra_spread)
+        return diff[runs] / scale
+
+    def error(self, sim_features: np.ndarray, runs: np.ndarray,
+              bias_runs: np.ndarray | None = None,
+              extra_spread: np.ndarray | None = None) -> float:
+        """RMS z-score over runs and features: ~1 for a simulation as close to the
+        measurements as one trial is to the next."""
+        z = self.z_scores(sim_features, runs, bias_runs, extra_spread)
+        return float(np.sqrt(np.nanmean(z ** 2)))
+
+    def run_errors(self, sim_features: np.ndarray, runs: np.ndarray,
+                   bias_runs: np.ndarray | None = None) -> np.ndarray:
+        z = self.z_scores(sim_features, runs, bias_runs)
+        return np.sqrt(np.nanmean(z ** 2, axis=1))
+
+    def discrepancies(self, sim_features: np.ndarray, limit: int = 20) -> list[dict]:
+        """The group features whose trial-mean z exceeds SIGNIFICANT_Z, largest first."""
+        runs = np.arange(len(self.observed.run_group))
+        z = self.z_scores(sim_features, runs)
+        names = feature_names()
+        sim = self.simulated_log(sim_features)
+        out = []
+        for gi, g in enumerate(self.observed.groups):
+            rows = self.observed.run_group == gi
+            zbar = np.nanmean(z[rows], axis=0)
+            for f in np.flatnonzero(np.abs(zbar) > SIGNIFICANT_Z):
+                kind = "centripetal" if f == N_POWER else "log10_band_power"
+                out.append({"group": g.label, "feature": names[f], "kind": kind,
+                            "measured": float(np.nanmean(self.measured[rows, f])),
+                            "simulated": float(sim[gi, f]),
+                            "trial_spread": float(self.scale[f]), "z": float(zbar[f])})
+        out.sort(key=lambda d: -abs(d["z"]))
+        return out[:limit]
+
+
+def model_factory(model: str | None = None, edit: Callable[[mujoco.MjSpec], None] | None = None,
+                  timestep: float | None = None) -> ModelFactory:
+    """Setup -> compiled model: the build of the run (or the user's model file for every
+    run), its floor, the accelerometer where the run had it, then edit (a cause)."""
+    from skidsteer.experiments import _wheel_mount
+    from skidsteer.models import load_model
+
+    def build(setup: Setup) -> mujoco.MjModel:
+        def edits(spec: mujoco.MjSpec) -> None:
+            if setup.mount == "wheel":
+                _wheel_mount(spec)
+            if setup.accel_position_m is not None:
+                site = spec.site(spec.sensor("accelerometer").objname)
+                site.pos = list(setup.accel_position_m)
+            if edit is not None:
+                edit(spec)
+        return load_model(model or setup.config, setup.surface, timestep=timestep, edit=edits)
+
+    return build

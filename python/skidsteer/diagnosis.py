@@ -1,0 +1,305 @@
+"""Diagnose: what the simulation gets wrong on a measured dataset, which cause explains it.
+
+1. The base model simulates every command group of the dataset
+   (comparison.simulate_groups); its error is the RMS z-score of the features
+   against the trials' spread (comparison.Comparison).
+2. The groups are split: every third command (sorted by setup and command,
+   starting with the second) is held out; the rest trains.
+3. Each candidate cause (skidsteer.causes) is fitted on the training runs:
+   its main parameter over a grid across its prior (one batch), then a bounded
+   Brent search between the best grid point's neighbours (scipy.optimize).  A
+   residual on spectral features, not on the raw signal: a time-series residual
+   has phase-wrapping local minima (PLATFORM-NOTES, sysid).
+4. Each fit is scored on the held-out runs, plus an AIC-style penalty for its
+   fitted parameter; the verdict follows VERDICT RULES below.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from scipy import optimize
+
+from skidsteer import causes as cause_registry
+from skidsteer.comparison import (Comparison, Group, Observed, Simulated, model_factory,
+                                  simulate_groups)
+from skidsteer.measured import read_dataset
+from skidsteer.sensor_chain import SensorChain
+
+GRID_POINTS = 5  # across the prior, at the centres of 5 equal slices (log or linear)
+REFINE_ITERATIONS = 4  # bounded Brent between the best grid point's neighbours
+REFINE_TOL_UNIT = 0.01  # in prior coordinates: 1 % of the prior's (log) range
+FIT_SEED = 0  # the realisation (rough floor, wheel phases) a fit simulates
+# causes with a random geometry: at the fitted value, this many realisations give
+# the prediction (their mean power) and its own spread (comparison.z_scores)
+REALISATIONS = 3
+# VERDICT RULES.  The error is the RMS z-score of the features; a simulation as
+# close to the measurements as one trial to another scores ~1 to ~1.4 (the
+# simulation is one more trial).
+Z_CONSISTENT = 2.0  # base error at or below: "no-discrepancy"
+Z_EXPLAINED = 3.0  # the named cause's held-out error must come down to within 3 sigma RMS
+MIN_GAIN = 0.5  # ... and at least halve the base model's held-out error
+SEPARATION = 0.25  # ... and beat the runner-up's score by this fraction of the base's
+PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs)
+
+
+@dataclasses.dataclass
+class Fit:
+    cause: str
+    parameters: dict[str, float]
+    main: str
+    interval: tuple[float, float]
+    train_error: float
+    held_out_error: float
+    score: float
+    simulated: Simulated
+    evaluations: list[tuple[float, float]]  # (main value, training error)
+
+
+def split(observed: Observed) -> tuple[np.ndarray, np.ndarray]:
+    """(training runs, held-out runs): every third group, starting with the second, is
+    held out; with fewer than 3 groups, the last trial of each group is."""
+    runs = np.arange(len(observed.run_group))
+    if len(observed.groups) >= 3:
+        held = np.isin(observed.run_group, np.arange(1, len(observed.groups), 3))
+    else:
+        held = np.zeros(len(runs), bool)
+        for gi in range(len(observed.groups)):
+            members = runs[observed.run_group == gi]
+            if len(members) > 1:
+                held[members[-1]] = True
+    if not held.any() or held.all():
+        raise ValueError("the dataset needs at least two runs of one command, or three "
+                         "commands, to hold some out")
+    return runs[~held], runs[held]
+
+
+class _Progress:
+    def __init__(self, total: int, enabled: bool):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=total, unit="run", desc="diagnose", file=sys.stderr,
+                        disable=not enabled)
+
+    def __call__(self, n: int) -> None:
+        self.bar.update(n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _interval(evaluations: list[tuple[float, float]], n_train: int, log: bool):
+    """Values whose training error is within the profile bound E^2 <= E_min^2 (1 + 1/n):
+    a Delta chi^2 = 1 bound with the residual variance scaled to the best fit and each
+    training run counted as one observation (features of a run are correlated)."""
+    ev = sorted(evaluations)
+    x = np.array([v for v, _ in ev])
+    e2 = np.array([e for _, e in ev]) ** 2
+    bound = e2.min() * (1 + 1 / max(n_train, 1))
+    ok = np.flatnonzero(e2 <= bound)
+    lo_i, hi_i = ok.min(), ok.max()
+    coord = np.log if log else (lambda a: a)
+    inv = np.exp if log else (lambda a: a)
+
+    def edge(i, j):  # where the error crosses the bound between points i (in) and j (out)
+        if j < 0 or j >= len(x):
+            return x[i]
+        t = (bound - e2[i]) / (e2[j] - e2[i]) if e2[j] != e2[i] else 0.0
+        return float(inv(coord(x[i]) + t * (coord(x[j]) - coord(x[i]))))
+
+    return edge(lo_i, lo_i - 1), edge(hi_i, hi_i + 1)
+
+
+def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: float,
+              train: np.ndarray, held: np.ndarray, model: str | None, timestep: float | None,
+              chain: SensorChain, nthread: int, progress) -> Fit:
+    main = cause.main
+
+    def jobs_for(values):
+        return [(model_factory(model, cause.edit(cause.parameters(v), FIT_SEED), timestep),
+                 groups) for v in values]
+
+    cache: dict[float, tuple[float, Simulated]] = {}
+
+    def evaluate(values):
+        values = [float(v) for v in values]
+        todo = [v for v in values if v not in cache]
+        if todo:
+            for v, sim in zip(todo, simulate_groups(jobs_for(todo), duration_s, chain,
+                                                    nthread=nthread, progress=progress)):
+                cache[v] = (comparison.error(sim.features, train), sim)
+        return [cache[v][0] for v in values]
+
+    grid = main.from_unit((np.arange(GRID_POINTS) + 0.5) / GRID_POINTS)
+    errors = evaluate(grid)
+    best = int(np.argmin(errors))
+    lo = main.to_unit(grid[max(best - 1, 0)]) if best > 0 else 0.0
+    hi = main.to_unit(grid[min(best + 1, GRID_POINTS - 1)]) if best < GRID_POINTS - 1 else 1.0
+    optimize.minimize_scalar(lambda u: evaluate([main.from_unit(u)])[0], bounds=(lo, hi),
+                             method="bounded",
+                             options={"xatol": REFINE_TOL_UNIT, "maxiter": REFINE_ITERATIONS})
+    value = min(cache, key=lambda v: cache[v][0])
+    train_error, sim = cache[value]
+    params = cause.parameters(value)
+    extra = None
+    if cause.random_realisation:
+        others = simulate_groups(
+            [(model_factory(model, cause.edit(params, FIT_SEED + k), timestep), groups)
+             for k in range(1, REALISATIONS)], duration_s, chain, nthread=nthread,
+            progress=progress)
+        features = np.stack([sim.features] + [o.features for o in others])
+        logs = np.stack([comparison.simulated_log(f) for f in features])
+        extra = np.sqrt(logs.var(axis=0, ddof=1).mean(axis=0))
+        sim = dataclasses.replace(sim, features=features.mean(axis=0))
+        train_error = comparison.error(sim.features, train, extra_spread=extra)
+    held_error = comparison.error(sim.features, held, bias_runs=train, extra_spread=extra)
+    evaluations = sorted((v, e) for v, (e, _) in cache.items())
+    return Fit(cause.name, params, main.name, _interval(evaluations, len(train), main.log),
+               train_error, held_error,
+               held_error ** 2 + PARAMETER_PENALTY * 1 / len(train), sim, evaluations)
+
+
+def verdict(base_error: float, base_held: float, fits: list[Fit]) -> tuple[str, Fit | None, str]:
+    """(verdict, named fit or None, reason)."""
+    if base_error <= Z_CONSISTENT:
+        return "no-discrepancy", None, (
+            f"the base model's error {base_error:.2f} is within {Z_CONSISTENT} (RMS z against "
+            "the trials' spread)")
+    if not fits:
+        return "unexplained", None, "no candidate cause applies to this model"
+    best = fits[0]
+    gain = 1 - best.held_out_error / base_held
+    if best.held_out_error > Z_EXPLAINED:
+        return "unexplained", None, (
+            f"the best candidate, {best.cause}, leaves a held-out error of "
+            f"{best.held_out_error:.2f} (> {Z_EXPLAINED}): no candidate explains the data")
+    if gain < MIN_GAIN:
+        return "unexplained", None, (
+            f"the best candidate, {best.cause}, cuts the held-out error by only {gain:.0%}")
+    base_score = base_held ** 2
+    if len(fits) > 1 and fits[1].score - best.score < SEPARATION * (base_score - best.score):
+        return "unexplained", None, (
+            f"{best.cause} and {fits[1].cause} explain the data about equally well "
+            f"(held-out {best.held_out_error:.2f} vs {fits[1].held_out_error:.2f})")
+    return "explained", best, (
+        f"{best.cause} brings the held-out error from {base_held:.2f} to "
+        f"{best.held_out_error:.2f} ({gain:.0%} less); the runner-up "
+        f"{fits[1].cause if len(fits) > 1 else '-'} reaches "
+        f"{fits[1].held_out_error if len(fits) > 1 else float('nan'):.2f}")
+
+
+def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
+             candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
+             timestep: float | None = None, chain: SensorChain = SensorChain(),
+             figures: bool = True) -> dict:
+    """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
+    extended model to out_dir when given.  Returns the diagnosis."""
+    started = time.time()
+    dataset = read_dataset(dataset_dir)
+    observed = Observed.from_dataset(dataset)
+    comparison = Comparison(observed)
+    groups = observed.groups
+    train, held = split(observed)
+    all_runs = np.arange(len(observed.run_group))
+    names = candidates or sorted(cause_registry.CAUSES)
+    per_fit = len(groups) * (GRID_POINTS + REFINE_ITERATIONS + 2 + REALISATIONS - 1)
+    bar = _Progress(len(groups) + per_fit * len(names), progress)
+    try:
+        base = simulate_groups([(model_factory(model, timestep=timestep), groups)],
+                               observed.duration_s, chain, nthread=nthread, progress=bar)[0]
+        base_error = comparison.error(base.features, all_runs)
+        base_held = comparison.error(base.features, held, bias_runs=train)
+        fits, not_applicable = [], []
+        if base_error > Z_CONSISTENT:
+            for name in names:
+                cause = cause_registry.get(name)
+                try:
+                    fits.append(fit_cause(cause, comparison, groups, observed.duration_s, train,
+                                          held, model, timestep, chain, nthread, bar))
+                except cause_registry.NotApplicable as err:
+                    not_applicable.append({"cause": name, "reason": str(err)})
+    finally:
+        bar.close()
+    fits.sort(key=lambda f: f.score)
+    result, named, reason = verdict(base_error, base_held, fits)
+    reference = named or (fits[0] if fits else None)
+    diagnosis = {
+        "verdict": result,
+        "cause": named.cause if named else None,
+        "reason": reason,
+        "parameters": named.parameters if named else {},
+        "intervals": {named.main: list(named.interval)} if named else {},
+        "ranking": [{"cause": f.cause, "held_out_error": f.held_out_error,
+                     "train_error": f.train_error, "score": f.score,
+                     "parameters": f.parameters, "interval": {f.main: list(f.interval)}}
+                    for f in fits],
+        "gain": {
+            "metric": "held-out RMS z-score of the spectral features (start-up and steady "
+                      "band powers per axis, centripetal mean) against the trials' spread",
+            "baseline_error": base_held,
+            "extended_error": reference.held_out_error if reference else base_held,
+            "relative_reduction": (1 - reference.held_out_error / base_held
+                                   if reference else 0.0),
+            "extended_cause": reference.cause if reference else None,
+        },
+        "baseline_error_all_runs": base_error,
+        "discrepancies": comparison.discrepancies(base.features),
+        "remaining_discrepancies": (comparison.discrepancies(named.simulated.features)
+                                    if named else None),
+        "skipped_runs": observed.skipped,
+        "not_applicable": not_applicable,
+        "dataset": {"root": str(Path(dataset_dir)), "runs": len(observed.run_files),
+                    "groups": [g.label for g in groups],
+                    "held_out_groups": sorted({groups[i].label
+                                               for i in observed.run_group[held]}),
+                    "duration_s": observed.duration_s},
+        "model": model or "built-in (per run's config)",
+        "wall_time_s": None,
+    }
+    diagnosis["wall_time_s"] = round(time.time() - started, 1)
+    if out_dir is not None:
+        from skidsteer.diagnosis_report import write_outputs
+
+        write_outputs(Path(out_dir), diagnosis, observed, comparison, base, fits, named,
+                      model, timestep, figures)
+    return diagnosis
+
+
+def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int = 2,
+            progress: bool = True, timestep: float | None = None,
+            chain: SensorChain = SensorChain(), figures: bool = True) -> dict:
+    """Simulates every command of a dataset with the base model and scores each feature
+    against the trials' spread; writes comparison.json, report.md and figures."""
+    started = time.time()
+    dataset = read_dataset(dataset_dir)
+    observed = Observed.from_dataset(dataset)
+    comparison = Comparison(observed)
+    bar = _Progress(len(observed.groups), progress)
+    try:
+        base = simulate_groups([(model_factory(model, timestep=timestep), observed.groups)],
+                               observed.duration_s, chain, nthread=nthread, progress=bar)[0]
+    finally:
+        bar.close()
+    all_runs = np.arange(len(observed.run_group))
+    summary = {
+        "baseline_error_all_runs": comparison.error(base.features, all_runs),
+        "verdict": ("no-discrepancy" if comparison.error(base.features, all_runs) <= Z_CONSISTENT
+                    else "discrepancy"),
+        "discrepancies": comparison.discrepancies(base.features),
+        "skipped_runs": observed.skipped,
+        "dataset": {"root": str(Path(dataset_dir)), "runs": len(observed.run_files),
+                    "groups": [g.label for g in observed.groups],
+                    "duration_s": observed.duration_s},
+        "model": model or "built-in (per run's config)",
+        "wall_time_s": round(time.time() - started, 1),
+    }
+    if out_dir is not None:
+        from skidsteer.diagnosis_report import write_compare_outputs
+
+        write_compare_outputs(Path(out_dir), summary, observed, comparison, base, figures)
+    return summary

@@ -1,0 +1,243 @@
+"""diagnose: candidate causes, the measurement chain, features, verdicts, and hidden effects.
+
+The hidden-effect tests build a "measured" dataset from a truth model (our model
+plus one effect, seeded) through the sensor chain into LabVIEW xlsx files, and
+require diagnose to find what was hidden.  They are the slow part of the suite
+(~1 min per effect on 2 cores); the records are 8 s, the shortest the features
+allow (3 s start-up window, 4 s onwards steady window with 4096-sample Welch
+segments).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+import skidsteer  # noqa: F401
+from skidsteer import causes, diagnosis
+from skidsteer.comparison import (CENTRIPETAL_RESOLUTION_M_S2, N_POWER, Comparison, Observed,
+                                  feature_names, run_features)
+from skidsteer.measured import read_dataset
+from skidsteer.models import load_model
+from skidsteer.sensor_chain import SensorChain
+from skidsteer.synth import OUTSIDE_EFFECTS, make_dataset
+
+NAMED = ("mast_compliance", "loose_payload", "ground_roughness", "wheel_eccentricity",
+         "slip_lambda_max", "friction_levels", "sensor_mount")
+
+
+# ------------------------------------------------------------------ registry
+
+def test_registry_holds_the_issue_candidates():
+    assert set(NAMED) <= set(causes.CAUSES)
+    for cause in causes.CAUSES.values():
+        p = cause.main
+        assert p.low < p.value < p.high and p.low <= cause.null_value <= p.high, cause.name
+        assert p.source and all(h.source for h in cause.held), cause.name
+
+
+@pytest.mark.parametrize("name", NAMED)
+def test_each_cause_compiles_on_the_extended_robot_and_changes_it(name):
+    cause = causes.get(name)
+    base = load_model("extended", "concrete")
+    m = load_model("extended", "concrete", edit=cause.edit(cause.parameters()))
+    changed = (m.nq != base.nq or m.nhfield != base.nhfield
+               or not np.array_equal(m.geom_pos, base.geom_pos)
+               or m.plugin_attr.tobytes() != base.plugin_attr.tobytes())
+    assert changed, f"{name} left the model as it was"
+
+
+@pytest.mark.parametrize("name", ["mast_compliance", "loose_payload"])
+def test_frame_causes_do_not_apply_to_the_bare_platform(name):
+    cause = causes.get(name)
+    with pytest.raises(causes.NotApplicable, match=name):
+        load_model("platform", "concrete", edit=cause.edit(cause.parameters()))
+
+
+def test_unknown_cause_and_parameter_are_named():
+    with pytest.raises(ValueError, match="'nope'"):
+        causes.get("nope")
+    with pytest.raises(ValueError, match="'bogus'"):
+        causes.get("mast_compliance").parameters(overrides={"bogus": 1.0})
+
+
+@pytest.mark.parametrize("name", NAMED)
+def test_clear_draws_stay_clear_of_the_base_model(name):
+    cause = causes.get(name)
+    rng = np.random.default_rng(0)
+    u0 = cause.main.to_unit(cause.null_value)
+    for _ in range(200):
+        value = cause.strong_draw(rng)
+        assert cause.main.low <= value <= cause.main.high
+        assert abs(cause.main.to_unit(value) - u0) >= causes.STRONG_DISTANCE - 1e-9
+
+
+# ------------------------------------------------------------------ chain and features
+
+def test_sensor_bandwidth_is_minus_3_db_at_80_hz():
+    fs = 10000.0
+    t = np.arange(0, 2.0, 1 / fs)
+    x = np.sin(2 * np.pi * 80.0 * t)[:, None]
+    y = SensorChain().respond(x, fs)[int(fs):]  # after the filter's transient
+    assert np.sqrt(2) * y.std() == pytest.approx(1 / np.sqrt(2), rel=0.01)
+
+
+def _record(amplitude=0.0, freq=7.0, mean_ax=0.0, seconds=8.0, fs=1000.0):
+    t = np.arange(0, seconds, 1 / fs)
+    accel = np.zeros((len(t), 3))
+    accel[:, 0] = mean_ax
+    accel[:, 1] = amplitude * np.sin(2 * np.pi * freq * t)
+    accel[:, 2] = 9.81
+    return t, accel
+
+
+def test_features_measure_band_power_and_centripetal_mean():
+    t, a = _record(amplitude=0.3, freq=7.5, mean_ax=0.05)
+    f = run_features(t, a)
+    names = feature_names()
+    # a sine of amplitude A carries A^2/2 of power, all of it in its band (Welch, Hann)
+    assert f[names.index("steady_ay_6.5-9Hz")] == pytest.approx(0.3 ** 2 / 2, rel=0.02)
+    assert f[names.index("start_ay_6.5-9Hz")] == pytest.approx(0.3 ** 2 / 2, rel=0.05)
+    assert f[names.index("steady_ay_12.5-17Hz")] < 1e-6 * 0.3 ** 2
+    assert f[-1] == pytest.approx(0.05)
+
+
+def test_too_short_records_are_refused_with_the_length():
+    t, a = _record(seconds=5.0)
+    with pytest.raises(ValueError, match="too short"):
+        run_features(t, a)
+
+
+def _observed(features, groups_of_runs):
+    n = len(features)
+    return Observed(groups=[object()] * (max(groups_of_runs) + 1),
+                    run_group=np.array(groups_of_runs), run_files=[f"r{i}" for i in range(n)],
+                    features=np.array(features), duration_s=8.0, skipped=[],
+                    records=[None] * n)
+
+
+def test_a_perfect_simulation_scores_zero_and_the_sensor_offset_is_a_nuisance():
+    rng = np.random.default_rng(1)
+    per_group = np.exp(rng.normal(-8, 1, (2, N_POWER + 1)))
+    per_group[:, -1] = [0.01, 0.1]
+    measured = per_group[[0, 0, 1, 1]].copy()
+    measured[:, -1] += 0.07  # zero-g error of the a_x channel
+    comp = Comparison(_observed(measured, [0, 0, 1, 1]))
+    runs = np.arange(4)
+    # simulated power plus the noise floor: exactly what was measured
+    sim = per_group - np.r_[comp.floor, 0.0]
+    sim[:, :N_POWER] = np.maximum(sim[:, :N_POWER], 0)
+    z = comp.z_scores(sim, runs)
+    assert np.abs(z).max() < 1e-9
+    # the centripetal feature's scale is at least its resolution
+    assert comp.scale[-1] >= CENTRIPETAL_RESOLUTION_M_S2
+
+
+def test_split_holds_out_the_middle_command():
+    obs = _observed(np.ones((9, N_POWER + 1)), [0, 0, 0, 1, 1, 1, 2, 2, 2])
+    train, held = diagnosis.split(obs)
+    assert list(held) == [3, 4, 5] and list(train) == [0, 1, 2, 6, 7, 8]
+
+
+# ------------------------------------------------------------------ verdict rules
+
+def _fit(name, held, score=None):
+    return diagnosis.Fit(name, {"p": 1.0}, "p", (0.9, 1.1), held, held,
+                         held ** 2 if score is None else score, None, [])
+
+
+def test_verdict_rules():
+    z = diagnosis.Z_CONSISTENT
+    assert diagnosis.verdict(z - 0.1, 1.0, [])[0] == "no-discrepancy"
+    # the best candidate leaves too much
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)])[0] \
+        == "unexplained"
+    # consistent, but not half the base error
+    assert diagnosis.verdict(2.5, 2.5, [_fit("a", 1.5)])[0] == "unexplained"
+    # two candidates equally good
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)])[0] == "unexplained"
+    result, named, _ = diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)])
+    assert result == "explained" and named.cause == "a"
+
+
+def test_missing_dataset_is_a_clear_error(tmp_path, capsys):
+    from skidsteer.cli import main
+
+    assert main(["diagnose", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o")]) == 2
+    assert "nowhere" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ hidden effects
+
+SEED = 3
+DURATION_S = 8.0
+
+
+@pytest.fixture(scope="module")
+def hidden(tmp_path_factory):
+    """effect -> (truth, diagnosis), each computed once."""
+    cache = {}
+
+    def run(effect, out=False):
+        if effect not in cache:
+            root = tmp_path_factory.mktemp(f"hidden-{effect}")
+            truth = make_dataset(root / "data", effect, seed=SEED, duration_s=DURATION_S)
+            result = diagnosis.diagnose(root / "data", root / "out" if out else None,
+                                        progress=False, figures=out)
+            cache[effect] = (truth, result, root)
+        return cache[effect]
+
+    return run
+
+
+def test_nothing_hidden_gives_no_discrepancy(hidden):
+    _, result, _ = hidden(None)
+    assert result["verdict"] == "no-discrepancy", result["reason"]
+    assert result["cause"] is None
+
+
+@pytest.mark.parametrize("effect", NAMED)
+def test_diagnose_names_the_hidden_cause(hidden, effect):
+    truth, result, _ = hidden(effect)
+    assert result["verdict"] == "explained", result["reason"]
+    assert result["cause"] == effect
+    main = truth["main_parameter"]
+    fitted, hidden_value = result["parameters"][main], truth["parameters"][main]
+    factor = causes.get(effect).recovery_factor
+    assert hidden_value / factor <= fitted <= hidden_value * factor, (fitted, hidden_value)
+    assert result["gain"]["relative_reduction"] >= 0.5
+
+
+@pytest.mark.parametrize("effect", sorted(OUTSIDE_EFFECTS))
+def test_an_effect_outside_the_candidates_is_unexplained(hidden, effect):
+    _, result, _ = hidden(effect)
+    assert result["verdict"] == "unexplained", result["reason"]
+    assert result["cause"] is None
+
+
+def test_diagnose_writes_its_outputs(tmp_path):
+    data = tmp_path / "data"
+    make_dataset(data, "slip_lambda_max", seed=SEED, duration_s=DURATION_S, file_format="csv")
+    (data / "broken.csv").write_text("time_s,ax,ay,az\n0,1,2\n")
+    with open(data / "runs.csv", "a") as f:
+        f.write("broken.csv,0,30,concrete,extended,platform,4\n")
+    out = tmp_path / "out"
+    result = diagnosis.diagnose(data, out, progress=False, candidates=["slip_lambda_max"])
+    saved = json.loads((out / "diagnosis.json").read_text())
+    for key in ("verdict", "cause", "parameters", "intervals", "ranking", "gain",
+                "discrepancies", "skipped_runs"):
+        assert key in saved
+    assert set(saved["gain"]) >= {"metric", "baseline_error", "extended_error",
+                                  "relative_reduction"}
+    assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
+    assert "broken.csv" in saved["skipped_runs"][0]["reason"]
+    assert (out / "report.md").read_text().count("figures/") == 2
+    assert (out / "figures" / "spectra.png").stat().st_size > 0
+    if result["verdict"] == "explained":
+        m = mujoco.MjModel.from_xml_path(str(out / "extended_model.xml"))
+        lam = causes.get("slip_lambda_max")
+        assert m.nu == 2 and lam is not None
