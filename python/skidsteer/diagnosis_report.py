@@ -13,8 +13,6 @@ from skidsteer.comparison import (AXES, N_POWER, START_WINDOW_S, STEADY_FROM_S, 
                                   Observed, Simulated, feature_names, model_factory)
 from skidsteer.datafiles import write_atomically
 
-CUBE_BEHIND_YAW_AXIS_M = 0.2  # Sec. 3.2: p_a = [-0.2, 0, 0] m
-
 
 def _steady(time_s, accel):
     t = np.asarray(time_s) - time_s[0]
@@ -61,10 +59,17 @@ def group_table(observed: Observed, comparison: Comparison, models: dict[str, Si
         measured = [readable_features(*observed.records[i]) for i in members]
         simulated = {name: readable_features(sim.time_s[gi], sim.accel[gi])
                      for name, sim in models.items()}
-        centripetal = observed.features[members, -1] + bias
+        # the mean a_x less the sensor's offset (bias) and the static a_x of the robot at
+        # rest (gravity along a tilted cube, read from the simulation's first sample)
+        centripetal = observed.features[members, -1] + bias - base.accel[gi][0, 0]
+        # yaw rate from the centripetal mean, scaled on the base simulation's (the
+        # turning centre is not the CoM: in a swivel it sits ahead of the cube by
+        # ~0.3 m, not 0.2 m, so a_x = omega^2 * 0.2 would overestimate omega)
+        sim_centripetal = base.features[gi, -1] - base.accel[gi][0, 0]
+        ratio = max(centripetal.mean(), 0.0) / sim_centripetal if sim_centripetal > 0 else np.nan
         row = {"group": g.label, "omega_deg_s": g.omega_deg_s, "trials": len(members),
-               "measured_yaw_rate_from_centripetal_deg_s": float(np.rad2deg(np.sqrt(
-                   max(centripetal.mean(), 0.0) / CUBE_BEHIND_YAW_AXIS_M))),
+               "measured_yaw_rate_from_centripetal_deg_s": float(
+                   base.mean_yaw_rate_deg_s[gi] * np.sqrt(ratio)),
                "features": {}}
         for name, sim in models.items():
             row[f"{name}_yaw_rate_deg_s"] = sim.mean_yaw_rate_deg_s[gi]
