@@ -197,24 +197,30 @@ def cmd_tire_loads(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dataset_error(err: Exception) -> int:
-    print(f"skidsteer: {err}", file=sys.stderr)
-    return 2
+def _run_on_dataset(func, args: argparse.Namespace, **extra):
+    """(result, exit code): func(dataset, out, ...) with the dataset commands' options;
+    a bad dataset is a message naming it and exit code 2."""
+    from skidsteer.measured import DataError
+
+    try:
+        result = func(args.dataset, args.out, model=args.model, nthread=args.threads,
+                      progress=not args.no_progress, timestep=args.timestep,
+                      figures=not args.no_figures, **extra)
+    except (DataError, ValueError, FileNotFoundError) as err:
+        print(f"skidsteer: {err}", file=sys.stderr)
+        return None, 2
+    if args.json:
+        _print_json(result)
+        return None, 0
+    return result, 0
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from skidsteer.diagnosis import compare
-    from skidsteer.measured import DataError
 
-    try:
-        result = compare(args.dataset, args.out, model=args.model, nthread=args.threads,
-                         progress=not args.no_progress, timestep=args.timestep,
-                         figures=not args.no_figures)
-    except (DataError, ValueError, FileNotFoundError) as err:
-        return _dataset_error(err)
-    if args.json:
-        _print_json(result)
-        return 0
+    result, code = _run_on_dataset(compare, args)
+    if result is None:
+        return code
     print(f"base model error {result['baseline_error_all_runs']:.2f} (RMS z against the "
           f"trials' spread): {result['verdict']}; report: {args.out}/report.md")
     for d in result["discrepancies"][:5]:
@@ -227,18 +233,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from skidsteer.diagnosis import diagnose
-    from skidsteer.measured import DataError
 
-    try:
-        result = diagnose(args.dataset, args.out, model=args.model,
-                          candidates=args.cause or None, nthread=args.threads,
-                          progress=not args.no_progress, timestep=args.timestep,
-                          figures=not args.no_figures)
-    except (DataError, ValueError, FileNotFoundError) as err:
-        return _dataset_error(err)
-    if args.json:
-        _print_json(result)
-        return 0
+    result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None)
+    if result is None:
+        return code
     g = result["gain"]
     cause = f" cause: {result['cause']}" if result["cause"] else ""
     print(f"verdict: {result['verdict']}{cause}")

@@ -20,7 +20,6 @@ import dataclasses
 import sys
 import time
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from scipy import optimize
@@ -44,7 +43,10 @@ REALISATIONS = 3
 Z_CONSISTENT = 2.0  # base error at or below: "no-discrepancy"
 Z_EXPLAINED = 3.0  # the named cause's held-out error must come down to within 3 sigma RMS
 MIN_GAIN = 0.5  # ... and at least halve the base model's held-out error
-SEPARATION = 0.25  # ... and beat the runner-up's score by this fraction of the base's
+# ... and beat the runner-up's score by a quarter of the base model's excess over the
+# best (assumed, set before any test ran: a runner-up that closes 3/4 of the gap is
+# a rival explanation, not a worse one)
+SEPARATION = 0.25
 PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs)
 
 

@@ -9,9 +9,12 @@ import numpy as np
 
 from skidsteer import causes as cause_registry
 from skidsteer import signals
-from skidsteer.comparison import (AXES, N_POWER, START_WINDOW_S, STEADY_FROM_S, Comparison,
-                                  Observed, Simulated, feature_names, model_factory)
+from skidsteer.analysis import _plain, _write_json
+from skidsteer.comparison import (AXES, N_POWER, STEADY_FROM_S, Comparison, Observed,
+                                  Simulated, feature_names)
 from skidsteer.datafiles import write_atomically
+from skidsteer.report import _fmt as report_fmt
+from skidsteer.report import _table
 
 
 def _steady(time_s, accel):
@@ -164,23 +167,22 @@ def plot_features_vs_omega(rows: list[dict], models: list[str], path: Path) -> P
 # ------------------------------------------------------------------ writers
 
 def write_json(path: Path, data: dict) -> Path:
-    return write_atomically(path, lambda tmp: tmp.write_text(json.dumps(data, indent=2) + "\n"))
+    """Strict JSON (non-finite numbers as null, numpy scalars as numbers), atomically."""
+    def ready(x):
+        if isinstance(x, dict):
+            return {k: ready(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [ready(v) for v in x]
+        return _plain(x)
+    return _write_json(path, ready(data))
 
 
 def write_text(path: Path, text: str) -> Path:
     return write_atomically(path, lambda tmp: tmp.write_text(text))
 
 
-def _fmt(x, digits=3) -> str:
-    if x is None or (isinstance(x, float) and not np.isfinite(x)):
-        return "-"
-    return f"{x:.{digits}g}"
-
-
-def _table(header: list[str], rows: list[list]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
+def _fmt(x, digits: int = 3) -> str:
+    return report_fmt(x, f".{digits}g")
 
 
 def group_markdown(rows: list[dict], models: list[str]) -> str:
@@ -251,7 +253,6 @@ def _skipped(skipped: list[dict]) -> list[str]:
 def write_extended_model(path: Path, cause: str, parameters: dict, setup, model: str | None,
                          timestep: float | None) -> Path:
     """The extended model as one MJCF file (includes flattened) that `skidsteer view` opens."""
-    from skidsteer.comparison import Setup  # noqa: F401  (type of setup)
     from skidsteer.experiments import _wheel_mount
     from skidsteer.models import load_spec
 

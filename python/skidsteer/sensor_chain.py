@@ -46,15 +46,8 @@ class SensorChain:
 
     def log(self, run: Run) -> tuple[np.ndarray, np.ndarray]:
         """(time_s, accel) of a simulated run as the sensor sees it, at rate_hz, noiseless."""
-        accel = self.respond(run.accel, run.sample_rate_hz)
-        # the decimating filter pads with zeros: take out the line through the first and
-        # last samples (gravity, the centripetal mean) first, so that it sees no step at
-        # the record's edges, and put it back after
-        t = run.time_s
-        line = accel[0] + np.outer((t - t[0]) / (t[-1] - t[0]), accel[-1] - accel[0])
-        time_s, logged = dataclasses.replace(run, accel=accel - line).accelerometer_log(
-            self.rate_hz)
-        return time_s, logged + line[np.searchsorted(t, time_s)]
+        filtered = dataclasses.replace(run, accel=self.respond(run.accel, run.sample_rate_hz))
+        return filtered.accelerometer_log(self.rate_hz)
 
     def record(self, run: Run, rng: np.random.Generator,
                offset_volts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,8 @@ import numpy as np
 
 
 # generator (synth) draws of a clear defect: at least 40 % of the prior's (log) range
-# from the value where the cause vanishes
+# from the value where the cause vanishes (assumed: the nearer 40 % holds the
+# defects too small to matter, the remaining 60 % still spans a decade or more)
 STRONG_DISTANCE = 0.4
 
 
@@ -63,7 +64,11 @@ class Cause:
     held: tuple[Parameter, ...]  # held at their values
     apply: Callable[[mujoco.MjSpec, Mapping[str, float], int], None]
     # recovery tolerance of the main parameter: the fitted value is within this
-    # factor of the truth on the generator's data (tests/test_diagnose.py)
+    # factor of the truth on the generator's data (tests/test_diagnose.py).  Set
+    # before the tests ran, not fitted to them: 1.5 (~15-20 % of a 1.5-2 decade prior)
+    # for amplitudes and stiffnesses, whose band powers change as their square; 1.25 for
+    # a resonance frequency, which the spectra place within a band; 1.15 for mu_s,
+    # which scales every tire force and the start-up breakaway linearly
     recovery_factor: float
     # the main parameter's value at which the cause vanishes (the base model), or
     # the end of its prior nearest to it
@@ -140,6 +145,17 @@ def sensor_site(spec: mujoco.MjSpec, sensor: str = "accelerometer"):
 def critical_damping(stiffness: float, inertia: float, ratio: float) -> float:
     """Viscous damping of a spring-mass (or torsion-inertia) at a damping ratio."""
     return 2.0 * ratio * float(np.sqrt(stiffness * inertia))
+
+
+def add_spring_slides(body, mass: float, frequency_hz: float, damping_ratio: float,
+                      axes: dict[str, list[float]]) -> None:
+    """Frees body to slide along each named axis on a spring and a damper that give a
+    mass of `mass` the natural frequency and damping ratio."""
+    k = mass * (2 * np.pi * frequency_hz) ** 2
+    c = critical_damping(k, mass, damping_ratio)
+    for name, axis in axes.items():
+        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, stiffness=k,
+                       damping=c)
 
 
 CAUSES: dict[str, Cause] = _discover()

@@ -26,8 +26,8 @@ GRID_PER_CORRELATION = 4  # samples per correlation length
 
 
 def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float,
-            seed: int) -> tuple[np.ndarray, float]:
-    """(heights (n, n) m, grid step m): zero-mean, RMS height_rms_m."""
+            seed: int) -> np.ndarray:
+    """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m."""
     step = correlation_length_m / GRID_PER_CORRELATION
     n = int(np.ceil(2 * half_size_m / step)) + 1
     if n > 2001:
@@ -36,14 +36,14 @@ def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float
     white = np.random.default_rng(seed).standard_normal((n, n))
     field = ndimage.gaussian_filter(white, GRID_PER_CORRELATION / np.sqrt(2), mode="wrap")
     field -= field.mean()
-    return field * (height_rms_m / field.std()), 2 * half_size_m / (n - 1)
+    return field * (height_rms_m / field.std())
 
 
 def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_SIZE_M) -> None:
     floor = spec.geom("floor")
     if floor is None or floor.type != mujoco.mjtGeom.mjGEOM_PLANE:
         raise NotApplicable("ground_roughness needs a plane geom named 'floor'")
-    heights, _ = surface(params["height_rms_m"], params["correlation_length_m"], half_size_m,
+    heights = surface(params["height_rms_m"], params["correlation_length_m"], half_size_m,
                          seed)
     low, span = float(heights.min()), float(np.ptp(heights))
     n = heights.shape[0]

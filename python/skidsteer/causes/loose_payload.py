@@ -6,9 +6,8 @@ mass.  The vertical direction stays rigid: the laptop rests on the tray.
 """
 
 import mujoco
-import numpy as np
 
-from skidsteer.causes import Cause, Parameter, body, critical_damping
+from skidsteer.causes import Cause, Parameter, add_spring_slides, body
 
 FREQUENCY = Parameter(
     "frequency_hz", 4.0, 30.0, 11.0, log=True,
@@ -21,12 +20,8 @@ DAMPING_RATIO = Parameter(
 
 def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
     laptop = body(spec, "laptop", "loose_payload")
-    mass = laptop.mass
-    k = mass * (2 * np.pi * params["frequency_hz"]) ** 2
-    c = critical_damping(k, mass, params["damping_ratio"])
-    for axis, name in (([1, 0, 0], "laptop_x"), ([0, 1, 0], "laptop_y")):
-        laptop.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, stiffness=k,
-                         damping=c)
+    add_spring_slides(laptop, laptop.mass, params["frequency_hz"], params["damping_ratio"],
+                      {"laptop_x": [1, 0, 0], "laptop_y": [0, 1, 0]})
 
 
 CAUSE = Cause("loose_payload", "the laptop slides on a compliant (Velcro) mount",

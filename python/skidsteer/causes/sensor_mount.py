@@ -6,9 +6,9 @@ mount's natural frequency, and moves the accelerometer (and gyro) onto it.
 """
 
 import mujoco
-import numpy as np
 
-from skidsteer.causes import Cause, NotApplicable, Parameter, critical_damping, sensor_site
+from skidsteer.causes import (Cause, NotApplicable, Parameter, add_spring_slides,
+                              sensor_site)
 
 CUBE_MASS_KG = 0.1  # assumed: a 4 cm wood cube (~40 g) with three SCA620 boards and cables
 FREQUENCY = Parameter(
@@ -25,14 +25,11 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
     parent = site.parent
     if parent is None:
         raise NotApplicable("sensor_mount: the accelerometer's site has no body")
-    k = CUBE_MASS_KG * (2 * np.pi * params["frequency_hz"]) ** 2
-    c = critical_damping(k, CUBE_MASS_KG, params["damping_ratio"])
     cube = parent.add_body(name="sensor_cube", pos=list(site.pos), quat=list(site.quat))
     cube.add_geom(name="sensor_cube", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 0.02, 0.02],
                   mass=CUBE_MASS_KG, contype=0, conaffinity=0, group=3)
-    for axis, name in (([1, 0, 0], "cube_x"), ([0, 1, 0], "cube_y"), ([0, 0, 1], "cube_z")):
-        cube.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, stiffness=k,
-                       damping=c)
+    add_spring_slides(cube, CUBE_MASS_KG, params["frequency_hz"], params["damping_ratio"],
+                      {"cube_x": [1, 0, 0], "cube_y": [0, 1, 0], "cube_z": [0, 0, 1]})
     cube.add_site(name="sensor_cube_site")
     for name in ("accelerometer", "gyro"):
         sensor = spec.sensor(name)
