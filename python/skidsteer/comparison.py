@@ -176,9 +176,9 @@ class Observed:
         out[:, :N_POWER] = np.log10(np.maximum(out[:, :N_POWER], 1e-30))
         return out
 
-    def scales(self) -> np.ndarray:
-        """Per feature, the trials' spread (pooled within groups, ddof 1), at least
-        the estimator's resolution."""
+    def trial_spread(self) -> np.ndarray:
+        """Per feature, the trials' spread: the standard deviation within groups, pooled
+        (ddof 1); zero without repeated trials."""
         logf = self.log_features()
         var, dof = np.zeros(logf.shape[1]), 0
         for gi in range(len(self.groups)):
@@ -186,10 +186,14 @@ class Observed:
             if len(rows) > 1:
                 var += ((rows - rows.mean(axis=0)) ** 2).sum(axis=0)
                 dof += len(rows) - 1
-        spread = np.sqrt(var / dof) if dof else np.zeros(logf.shape[1])
-        floor = np.full(logf.shape[1], LOG_POWER_RESOLUTION)
+        return np.nan_to_num(np.sqrt(var / dof)) if dof else np.zeros(logf.shape[1])
+
+    def scales(self) -> np.ndarray:
+        """Per feature, the scale a discrepancy is measured in: the trials' spread, at
+        least the estimator's resolution."""
+        floor = np.full(self.features.shape[1], LOG_POWER_RESOLUTION)
         floor[-1] = CENTRIPETAL_RESOLUTION_M_S2
-        return np.maximum(np.nan_to_num(spread), floor)
+        return np.maximum(self.trial_spread(), floor)
 
 
 # ------------------------------------------------------------------ simulation
@@ -272,6 +276,14 @@ class Comparison:
         self.floor = self.observed.noise_floor()
         self.scale = self.observed.scales()
         self.measured = self.observed.log_features()
+
+    def noise_error(self) -> float:
+        """The error a simulation exactly at the trials' mean scores, on average, against
+        single trials: the RMS over features of the trials' spread in units of the
+        scale (<= 1, as the scale is the spread or its floor).  No model can score
+        below it except by chance; it is the zero of a discrepancy."""
+        spread = self.observed.trial_spread()
+        return float(np.sqrt(np.mean((spread / self.scale) ** 2)))
 
     def simulated_log(self, sim_features: np.ndarray) -> np.ndarray:
         """Simulated features as the measurement would show them: the sensor chain's

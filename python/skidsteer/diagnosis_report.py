@@ -304,9 +304,10 @@ def write_outputs(out: Path, diagnosis: dict, observed: Observed, comparison: Co
     lines += [
         "## Gain on held-out runs", "",
         _table(["metric", "base model", f"extended ({g['extended_cause'] or '-'})",
-                "relative reduction"],
+                "trial noise", "discrepancy removed", "RMS error reduced"],
                [[g["metric"], _fmt(g["baseline_error"]), _fmt(g["extended_error"]),
-                 f"{g['relative_reduction']:.0%}"]]), "",
+                 _fmt(g["noise_error"]), f"{g['relative_reduction']:.0%}",
+                 f"{g['rms_reduction']:.0%}"]]), "",
         f"Base error over all runs: {diagnosis['baseline_error_all_runs']:.2f}.", "",
         "## Candidates, best first", "",
         _table(["cause", "held-out error", "training error", "score (E^2 + penalty)",
