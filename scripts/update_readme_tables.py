@@ -26,13 +26,17 @@ def main() -> None:
     results = json.loads(Path(args.results).read_text())
     table = _table(["quantity", "measured (thesis)", "thesis model", "ours", "target (ours)"],
                    [list(r) for r in summary_rows(results)])
-    readme = Path(args.readme)
+    write_between_markers(Path(args.readme), START, END, table)
+
+
+def write_between_markers(readme: Path, start: str, end: str, body: str) -> None:
+    """Replaces what stands between the start and end markers of readme with body (a
+    start marker without its end marker gets one)."""
     text = readme.read_text()
-    block = f"{START}\n{table}{END}"
-    pattern = re.compile(re.escape(START) + r"(.*?" + re.escape(END) + r")?", re.S)
+    pattern = re.compile(re.escape(start) + r"(.*?" + re.escape(end) + r")?", re.S)
     if not pattern.search(text):
-        raise SystemExit(f"{readme}: no {START} marker")
-    readme.write_text(pattern.sub(lambda _: block, text, count=1))
+        raise SystemExit(f"{readme}: no {start} marker")
+    readme.write_text(pattern.sub(lambda _: f"{start}\n{body}{end}", text, count=1))
 
 
 if __name__ == "__main__":

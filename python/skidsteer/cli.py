@@ -246,7 +246,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g})" if interval else ""
         print(f"  {name} = {value:.4g}{extra}")
     print(f"gain on held-out runs: error {g['baseline_error']:.2f} -> {g['extended_error']:.2f}"
-          f" ({g['relative_reduction']:.0%} less, {g['extended_cause'] or 'no cause'})")
+          f" (trial noise {g['noise_error']:.2f}; {g['relative_reduction']:.0%} of the "
+          f"discrepancy removed, {g['extended_cause'] or 'no cause'})")
     for s in result["skipped_runs"]:
         print(f"  skipped {s.get('file')}: {s.get('reason')}")
     print(f"report: {args.out}/report.md ({result['wall_time_s']} s)")
@@ -257,6 +258,17 @@ def cmd_view(args: argparse.Namespace) -> int:
     from skidsteer.viewer import launch
 
     launch(args.model, args.surface)
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from skidsteer.video import render_swivel
+
+    result = render_swivel(task=args.task, omega_deg_s=args.omega, seconds=args.seconds,
+                           out=args.out, width=args.width, height=args.height, fps=args.fps,
+                           floor=args.floor, build=args.build, seed=args.seed)
+    print(result["video"])
+    print(result["still"])
     return 0
 
 
@@ -369,6 +381,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="extended, platform or a path to an MJCF file")
     p.add_argument("--surface", choices=FLOORS, default=None)
     p.set_defaults(func=cmd_view)
+
+    p = sub.add_parser("render", help="video (.mp4) and still (.png) of the feed-forward swivel "
+                                      "in a skidsteer.tasks task")
+    p.add_argument("--task", default="swivel", help="pioneer3at task: swivel or swivel_smooth")
+    p.add_argument("--omega", type=float, default=60.0,
+                   help="commanded yaw rate, deg/s (|omega| in [2, 64], the thesis's range)")
+    p.add_argument("--out", default="swivel.mp4", help="video file (.mp4); the still is .png")
+    p.add_argument("--seconds", type=float, default=5.0, help="simulated and video time, s")
+    p.add_argument("--floor", choices=FLOORS, default="concrete")
+    p.add_argument("--build", choices=sorted(BUILDS), default="extended")
+    p.add_argument("--width", type=int, default=640, help="pixels, even, <= 1280")
+    p.add_argument("--height", type=int, default=360, help="pixels, even, <= 720")
+    p.add_argument("--fps", type=float, default=25.0, help="frames per second, <= 100")
+    p.add_argument("--seed", type=int, default=0, help="initial-state perturbation seed")
+    p.set_defaults(func=cmd_render)
     return parser
 
 
