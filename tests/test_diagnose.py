@@ -150,9 +150,9 @@ def _fit(name, held, score=None):
 
 def test_verdict_rules():
     z = diagnosis.Z_CONSISTENT
-    assert diagnosis.verdict(z - 0.1, 1.0, [])[0] == "no-discrepancy"
+    assert diagnosis.verdict(z - 0.1, 1.0, [], noise=1.0)[0] == "no-discrepancy"
     # the best candidate leaves too much
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)])[0] \
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)], noise=1.0)[0] \
         == "unexplained"
     # consistent, but removing less than half of the discrepancy over the trial noise:
     # (2.5^2 - 2.1^2) / (2.5^2 - 1^2) = 35 %
@@ -160,8 +160,9 @@ def test_verdict_rules():
     # the same extension against a base error twice as large removes 84 %
     assert diagnosis.verdict(5.0, 5.0, [_fit("a", 2.1)], noise=1.0)[0] == "explained"
     # two candidates equally good
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)])[0] == "unexplained"
-    result, named, _ = diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)])
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)], noise=1.0)[0] \
+        == "unexplained"
+    result, named, _ = diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)], noise=1.0)
     assert result == "explained" and named.cause == "a"
 
 

@@ -77,7 +77,6 @@ def test_random_policy_runs_to_its_time_limit_without_warnings(domain, task):
     for step in steps:
         for name, value in step.observation.items():
             assert np.all(np.isfinite(value)), name
-        assert 0.0 <= step.reward <= 1.0
     assert env.physics.upright() > 0.9  # still on its wheels
 
 
@@ -133,7 +132,7 @@ def test_feed_forward_tracks_at_60_deg_s_and_falls_short_at_10():
     assert 0.4 < rewards[after].mean() < 0.8  # measured 0.61
 
 
-def test_swivel_smooth_reward_never_exceeds_swivel_on_the_same_trajectory():
+def test_swivel_smooth_penalises_the_ramp_in_on_the_same_trajectory():
     results = {}
     for task in ("swivel", "swivel_smooth"):
         env = tasks.load("pioneer3at", task, task_kwargs=dict(omega_deg_s=60, time_limit=1.0,
@@ -145,7 +144,6 @@ def test_swivel_smooth_reward_never_exceeds_swivel_on_the_same_trajectory():
     (plain, gyro, vibration), (smooth, gyro_smooth, _) = results["swivel"], \
         results["swivel_smooth"]
     np.testing.assert_array_equal(gyro, gyro_smooth)  # the same trajectory
-    assert np.all(smooth <= plain)
     assert np.any(smooth < plain - 0.1)  # the ramp-in shakes the robot
     assert vibration.max() > 0.1
 

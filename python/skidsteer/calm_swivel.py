@@ -26,15 +26,12 @@ at the same mean yaw rate (the issue asks within 5 %).
 
 from __future__ import annotations
 
-import math
-
 import mujoco
-import mujoco.rollout
 import numpy as np
 
 from skidsteer.analysis import swivel_features
-from skidsteer.simulation import (ROT_ACCEL_DEG_S2, DriveGeometry,
-                                  _run_from_rollout, settle)
+from skidsteer.simulation import (ROT_ACCEL_DEG_S2, DriveGeometry, firmware_ramp,
+                                  runs_from_rest, step_times)
 
 # assumed (a controller setting, not physics): long enough that the wheels break
 # away at a small fraction of the final rate (breakaway comes 0.4-0.7 s after the
@@ -45,12 +42,12 @@ RUN_S = 20.0  # the thesis's swivel runs (Sec. 3.2)
 MEAN_YAW_TOLERANCE = 0.05  # the issue's "same mean yaw rate (within 5 %)"
 
 
-def feedforward_command(t: np.ndarray, omega_deg_s: float) -> np.ndarray:
-    """The thesis's command (Sec. 6.1), yaw rate in deg/s at times t: ramped in at the
-    firmware's 100 deg/s^2, then held (as DriveGeometry.ramp)."""
-    t = np.asarray(t, dtype=float)
-    return math.copysign(1.0, omega_deg_s) * np.minimum(abs(omega_deg_s),
-                                                        ROT_ACCEL_DEG_S2 * np.maximum(t, 0.0))
+def feedforward_command(t: np.ndarray, omega_deg_s: float, run_s: float = RUN_S,
+                        soft_start_s: float = SOFT_START_S) -> np.ndarray:
+    """The thesis's command (Sec. 6.1), yaw rate in deg/s at times t: the firmware's
+    100 deg/s^2 ramp, then held (as DriveGeometry.ramp); run_s and soft_start_s are
+    not used (the signature of CONTROLLERS)."""
+    return firmware_ramp(t, omega_deg_s, ROT_ACCEL_DEG_S2)
 
 
 def soft_start_final_rate(omega_deg_s: float, run_s: float = RUN_S,
@@ -72,35 +69,20 @@ def soft_start_command(t: np.ndarray, omega_deg_s: float, run_s: float = RUN_S,
     return final * 0.5 * (1 - np.cos(np.pi * u))
 
 
-def wheel_controls(m: mujoco.MjModel, yaw_rate_deg_s: np.ndarray) -> np.ndarray:
-    """(n, nu) wheel-speed controls for a yaw-rate command, eq. 2.11 without slip."""
-    drive = DriveGeometry.from_model(m)
-    left, right = drive.wheel_speeds(0.0, np.deg2rad(yaw_rate_deg_s))
-    ctrl = np.zeros((len(yaw_rate_deg_s), m.nu))
-    ctrl[:, drive.left_actuator], ctrl[:, drive.right_actuator] = left, right
-    return ctrl
-
-
-CONTROLLERS = {"feedforward": lambda t, w, run_s, ramp_s: feedforward_command(t, w),
-               "soft_start": soft_start_command}
+CONTROLLERS = {"feedforward": feedforward_command, "soft_start": soft_start_command}
 
 
 def run_controllers(m: mujoco.MjModel, omega_deg_s: float, run_s: float = RUN_S,
                     soft_start_s: float = SOFT_START_S, nthread: int = 2) -> dict[str, dict]:
     """Both controllers at omega_deg_s from the same settled state (one rollout call):
     controller -> {mean_yaw_rate_deg_s, amplitude_m_s2, steady_amplitude_m_s2}."""
-    state = settle(m, mujoco.MjData(m), 2.0)
-    nstep = int(round(run_s / m.opt.timestep))
-    t = (np.arange(nstep) + 1) * m.opt.timestep  # step k acts over [k dt, (k+1) dt]
-    names = list(CONTROLLERS)
-    controls = np.stack([wheel_controls(m, CONTROLLERS[n](t, omega_deg_s, run_s, soft_start_s))
-                         for n in names])
-    datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(names))))]
-    states, sensors = mujoco.rollout.rollout(m, datas, np.repeat(state[None], len(names), 0),
-                                             controls, nstep=nstep)
+    drive = DriveGeometry.from_model(m)
+    t = step_times(m, int(round(run_s / m.opt.timestep)))
+    controls = np.stack([drive.control(m, 0.0, np.deg2rad(command(t, omega_deg_s, run_s,
+                                                                  soft_start_s)))
+                         for command in CONTROLLERS.values()])
     out = {}
-    for k, name in enumerate(names):
-        run = _run_from_rollout(m, states[k], sensors[k], controls[k, -1], state[0])
+    for name, run in zip(CONTROLLERS, runs_from_rest(m, controls, nthread=nthread)):
         features = swivel_features(*run.accelerometer_log())
         out[name] = {"mean_yaw_rate_deg_s": run.mean_yaw_rate_deg_s(),
                      "amplitude_m_s2": features["amplitude_m_s2"],
@@ -149,15 +131,12 @@ class SoftStartPolicy:
         soft_start_final_rate(omega_deg_s, run_s, soft_start_s)  # validates
 
     def __call__(self, time_step, env) -> np.ndarray:
+        from skidsteer.tasks.pioneer3at import feedforward_action
+
         physics = env.physics
-        t = physics.data.time + physics.model.opt.timestep
-        w = float(soft_start_command(np.array([t]), self.omega_deg_s, self.run_s,
-                                     self.soft_start_s)[0])
-        drive = DriveGeometry.from_model(physics.model.ptr)
-        action = np.zeros(physics.model.nu)
-        action[drive.left_actuator], action[drive.right_actuator] = drive.wheel_speeds(
-            0.0, math.radians(w))
-        return action
+        t = physics.data.time + physics.model.opt.timestep  # as step_times
+        w = float(soft_start_command(t, self.omega_deg_s, self.run_s, self.soft_start_s))
+        return feedforward_action(physics, w, ramp=False)
 
 
 def markdown_table(rows: list[dict]) -> str:

@@ -182,7 +182,7 @@ def gain(base_held: float, extended_held: float, noise: float) -> float:
     return float(min(1.0, (base_held ** 2 - extended_held ** 2) / excess))
 
 
-def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float = 0.0
+def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float
             ) -> tuple[str, Fit | None, str]:
     """(verdict, named fit or None, reason); noise: Comparison.noise_error()."""
     if base_error <= Z_CONSISTENT:

@@ -57,18 +57,28 @@ class DriveGeometry:
              nstep: int) -> np.ndarray:
         """(nstep, nu) controls: from rest to (v_x*, omega_z*) at the firmware's
         acceleration limits, then held (step k acts over t in [k dt, (k+1) dt])."""
-        t = (np.arange(nstep) + 1) * m.opt.timestep
-        v = np.sign(v_mps) * np.minimum(abs(v_mps), TRANS_ACCEL_MPS2 * t)
-        w = np.sign(omega_deg_s) * np.minimum(abs(omega_deg_s), ROT_ACCEL_DEG_S2 * t)
-        left, right = self.wheel_speeds(v, np.deg2rad(w))
-        ctrl = np.zeros((nstep, m.nu))
-        ctrl[:, self.left_actuator], ctrl[:, self.right_actuator] = left, right
+        t = step_times(m, nstep)
+        return self.control(m, firmware_ramp(t, v_mps, TRANS_ACCEL_MPS2),
+                            np.deg2rad(firmware_ramp(t, omega_deg_s, ROT_ACCEL_DEG_S2)))
+
+    def control(self, m: mujoco.MjModel, v_mps, omega_rad_s) -> np.ndarray:
+        """Controls for (v_x*, omega_z*): (nu,) for scalars, (n, nu) for arrays of n."""
+        left, right = self.wheel_speeds(np.asarray(v_mps, float), np.asarray(omega_rad_s, float))
+        ctrl = np.zeros(np.broadcast(left, right).shape + (m.nu,))
+        ctrl[..., self.left_actuator], ctrl[..., self.right_actuator] = left, right
         return ctrl
 
-    def control(self, m: mujoco.MjModel, v_mps: float, omega_rad_s: float) -> np.ndarray:
-        ctrl = np.zeros(m.nu)
-        ctrl[self.left_actuator], ctrl[self.right_actuator] = self.wheel_speeds(v_mps, omega_rad_s)
-        return ctrl
+
+def step_times(m: mujoco.MjModel, nstep: int) -> np.ndarray:
+    """The times a command is timed at for steps 0..nstep-1 from rest: step k acts over
+    [k dt, (k+1) dt] and takes the command at its end, (k+1) dt."""
+    return (np.arange(nstep) + 1) * m.opt.timestep
+
+
+def firmware_ramp(t, target: float, acceleration: float):
+    """The firmware's ramp to a target (Sec. 6.1: the P3-AT limits its accelerations):
+    rising at `acceleration` from 0 at t = 0, then held; either sign."""
+    return np.sign(target) * np.minimum(abs(target), acceleration * np.maximum(t, 0.0))
 
 
 def get_state(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
@@ -228,20 +238,29 @@ def run_batch(models: list[mujoco.MjModel], commands: list[tuple[float, float]],
         groups.setdefault(id(m), []).append(i)
     for indices in groups.values():
         m = models[indices[0]]
-        settled = settle(m, mujoco.MjData(m), settle_s)
-        initial = np.stack([perturbed(m, settled, seeds[i] if seeds else None)
-                            for i in indices])
         drive = DriveGeometry.from_model(m)
         controls = np.stack([drive.ramp(m, commands[i][0], commands[i][1], nstep)
                              for i in indices])
-        datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(indices))))]
-        states, sensors = mujoco.rollout.rollout(
-            m, datas, initial, controls,
-            nstep=nstep)
-        for k, i in enumerate(indices):
-            runs[i] = _run_from_rollout(m, states[k], sensors[k], controls[k, -1],
-                                        initial[k, 0])
+        group_runs = runs_from_rest(m, controls, settle_s, nthread,
+                                    [seeds[i] for i in indices] if seeds else None)
+        for i, run in zip(indices, group_runs):
+            runs[i] = run
     return runs  # type: ignore[return-value]
+
+
+def runs_from_rest(m: mujoco.MjModel, controls: np.ndarray, settle_s: float = 2.0,
+                   nthread: int = 2, seeds: list[int | None] | None = None) -> list[Run]:
+    """One run per (nstep, nu) control sequence in controls (k, nstep, nu), each from the
+    model settled once (settle_s), perturbed by seeds[k] (see perturbed), stepped in
+    one mujoco.rollout call on nthread threads."""
+    settled = settle(m, mujoco.MjData(m), settle_s)
+    initial = np.stack([perturbed(m, settled, seeds[k] if seeds else None)
+                        for k in range(len(controls))])
+    datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(controls))))]
+    states, sensors = mujoco.rollout.rollout(m, datas, initial, controls,
+                                             nstep=controls.shape[1])
+    return [_run_from_rollout(m, states[k], sensors[k], controls[k, -1], initial[k, 0])
+            for k in range(len(controls))]
 
 
 def swivel(m: mujoco.MjModel, omega_deg_s: float, duration_s: float = 20.0,

@@ -36,7 +36,8 @@ from scipy import signal
 
 from skidsteer import models, signals  # importing skidsteer registers the tire plugin
 from skidsteer.simulation import (FULLPHYSICS, LOG_RATE_HZ, ROT_ACCEL_DEG_S2,
-                                  TRIAL_DEFLECTION_M, DriveGeometry, sensor_slice, settle)
+                                  TRIAL_DEFLECTION_M, DriveGeometry, firmware_ramp,
+                                  sensor_slice, settle)
 
 SUITE = containers.TaggedTasks()
 
@@ -345,12 +346,9 @@ def feedforward_action(physics: Physics, omega_deg_s: float, ramp: bool = True) 
         DriveGeometry.from_model(physics.model.ptr)
     omega = float(omega_deg_s)
     if ramp:
-        t = physics.data.time + physics.model.opt.timestep  # DriveGeometry.ramp's (k+1) dt
-        omega = math.copysign(min(abs(omega), ROT_ACCEL_DEG_S2 * t), omega)
-    left, right = drive.wheel_speeds(0.0, math.radians(omega))
-    action = np.zeros(physics.model.nu)
-    action[drive.left_actuator], action[drive.right_actuator] = left, right
-    return action
+        t = physics.data.time + physics.model.opt.timestep  # as simulation.step_times
+        omega = float(firmware_ramp(t, omega, ROT_ACCEL_DEG_S2))
+    return drive.control(physics.model.ptr, 0.0, math.radians(omega))
 
 
 def _check_options(floor, omega_deg_s, build, lambda_max, time_limit, control_timestep,
