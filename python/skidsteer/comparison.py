@@ -10,6 +10,11 @@ The feature vector, per axis of the cube:
 - log10 band powers of the start-up window (the first seconds after the
   command, which ring the robot's modes the way the thesis's free responses
   do, Sec. 5.2) and of the steady window (Sec. 3.2's swivel vibration);
+- the steady powers of the lines at the wheels' rotation rate and twice it
+  (wheel orders, from the command): an out-of-round wheel lifts and drops its
+  corner once per revolution, tilting the robot, so gravity projects onto a_x
+  and a_y as a line at exactly the commanded wheel rate (Sec. 3.2's components
+  rising with omega); a rough floor spreads its power over a band instead;
 - the steady mean of a_x, the centripetal acceleration of a cube 0.2 m behind
   the yaw axis, which carries the achieved yaw rate (the recordings have no gyro).
 """
@@ -17,17 +22,17 @@ The feature vector, per axis of the cube:
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
+from typing import Callable, Sequence
 
 import mujoco
-import mujoco.rollout
 import numpy as np
 from scipy import signal
 
 from skidsteer.measured import Dataset, RunInfo
 from skidsteer.sensor_chain import SensorChain
-from skidsteer.simulation import DriveGeometry, Run, _run_from_rollout, settle
+from skidsteer.simulation import DriveGeometry, runs_from_rest, settle
 
 AXES = "xyz"
 START_WINDOW_S = 3.0  # ramp (<= 0.64 s at 64 deg/s) plus ~2 decay times of the slowest mode
@@ -47,6 +52,12 @@ CENTRIPETAL_RESOLUTION_M_S2 = 0.004
 SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds this
 
 
+# Wheel orders: multiples of a wheel's rotation rate whose line power is a feature.
+# 1: the run-out's fundamental; 2: its first harmonic, where a rough floor (broad
+# band) still has power and a near-sinusoidal run-out has little.
+WHEEL_ORDERS = (1, 2)
+
+
 def _edges(window: str) -> tuple[float, ...]:
     return (STEADY_LOW_EDGES_HZ + BAND_EDGES_HZ) if window == "steady" else BAND_EDGES_HZ
 
@@ -57,6 +68,8 @@ def feature_names() -> list[str]:
         edges = _edges(window)
         for axis in AXES:
             names += [f"{window}_a{axis}_{lo:g}-{hi:g}Hz" for lo, hi in zip(edges[:-1], edges[1:])]
+    for axis in AXES:
+        names += [f"steady_a{axis}_wheel_{k}x" for k in WHEEL_ORDERS]
     return names + ["centripetal_ax_m_s2"]
 
 
@@ -74,9 +87,53 @@ def _band_powers(x: np.ndarray, fs: float, nperseg: int, edges) -> np.ndarray:
     return out.T.ravel()  # axis-major: x bands, y bands, z bands
 
 
-def run_features(time_s: np.ndarray, accel: np.ndarray) -> np.ndarray:
+def wheel_rates_hz(m: mujoco.MjModel, v_mps: float, omega_deg_s: float) -> tuple[float, ...]:
+    """The wheels' rotation rates (Hz, > 0) under the command (v_x*, omega_z*): the
+    servos hold the commanded wheel speeds (Sec. 6.1's feed-forward), whatever the
+    tires' slip.  One rate per side, merged when the sides turn equally fast."""
+    speeds = np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
+    rates = sorted({round(float(w) / (2 * np.pi), 12) for w in speeds if w > 0})
+    return tuple(rates)
+
+
+def _line_powers(t: np.ndarray, x: np.ndarray, rates_hz: Sequence[float]) -> np.ndarray:
+    """Per order k in WHEEL_ORDERS and axis: the summed power (amplitude^2 / 2) of the
+    sinusoids at k * rates_hz, all orders fitted together by least squares (so that one
+    line does not leak into another's estimate) with an offset and a linear drift over
+    the window.  NaN for an order whose slowest line has less than one period in the
+    window, or whose lines lie closer than the window's resolution (1 / T) to each other
+    or to another order's: a fit there cannot tell a line from the drift or its
+    neighbour."""
+    span = float(t[-1] - t[0])
+    tc = t - t.mean()
+    out = np.full((len(WHEEL_ORDERS), x.shape[1]), np.nan)
+    fitted: list[tuple[int, np.ndarray]] = []  # (order index, its frequencies)
+    for i, k in enumerate(WHEEL_ORDERS):
+        freqs = np.array([k * f for f in rates_hz])
+        if len(freqs) and freqs.min() * span >= 1.0:
+            fitted.append((i, freqs))
+    every = np.sort(np.concatenate([f for _, f in fitted])) if fitted else np.array([])
+    if len(every) > 1 and np.diff(every).min() * span < 1.0:
+        return out.T.ravel()
+    if fitted:
+        columns = [np.ones_like(tc), tc / span]
+        for _, freqs in fitted:
+            for f in freqs:
+                columns += [np.cos(2 * np.pi * f * tc), np.sin(2 * np.pi * f * tc)]
+        coef, *_ = np.linalg.lstsq(np.column_stack(columns), x, rcond=None)
+        col = 2
+        for i, freqs in fitted:
+            n = 2 * len(freqs)
+            out[i] = (coef[col:col + n] ** 2).sum(axis=0) / 2
+            col += n
+    return out.T.ravel()  # axis-major, like the bands
+
+
+def run_features(time_s: np.ndarray, accel: np.ndarray,
+                 wheel_rates: Sequence[float] = ()) -> np.ndarray:
     """The feature vector of one record starting at the command: powers in (m/s^2)^2, then
-    the centripetal mean in m/s^2."""
+    the centripetal mean in m/s^2.  wheel_rates: the wheels' rotation rates in Hz
+    (wheel_rates_hz); without them the wheel-order features are NaN (not scored)."""
     fs = (len(time_s) - 1) / float(time_s[-1] - time_s[0])
     t = time_s - time_s[0]
     if t[-1] < STEADY_FROM_S + STEADY_NPERSEG / fs / 2:
@@ -87,6 +144,7 @@ def run_features(time_s: np.ndarray, accel: np.ndarray) -> np.ndarray:
     return np.concatenate([
         _band_powers(start, fs, START_NPERSEG, _edges("start")),
         _band_powers(steady, fs, STEADY_NPERSEG, _edges("steady")),
+        _line_powers(t[t >= STEADY_FROM_S], steady, wheel_rates),
         [steady[:, 0].mean()],
     ])
 
@@ -134,19 +192,23 @@ class Observed:
     records: list[tuple[np.ndarray, np.ndarray]]  # (time_s, accel) per run
 
     @classmethod
-    def from_dataset(cls, dataset: Dataset) -> "Observed":
+    def from_dataset(cls, dataset: Dataset,
+                     wheel_rates: Callable[[Group], Sequence[float]] | None = None
+                     ) -> "Observed":
+        """wheel_rates: a group's wheel rotation rates in Hz (wheel_rates_hz on the model
+        that will simulate it); None leaves the wheel-order features unscored."""
         groups: list[Group] = []
         run_group, files, feats, durations, records = [], [], [], [], []
         skipped = list(dataset.skipped)
         for info, rec in dataset.runs:
             if rec is None:
                 continue
+            g = group_of(info)
             try:
-                f = run_features(rec.time_s, rec.accel)
+                f = run_features(rec.time_s, rec.accel, wheel_rates(g) if wheel_rates else ())
             except ValueError as err:
                 skipped.append({"file": info.file, "reason": f"{rec.path}: {err}"})
                 continue
-            g = group_of(info)
             if g not in groups:
                 groups.append(g)
             run_group.append(groups.index(g))
@@ -180,13 +242,17 @@ class Observed:
         """Per feature, the trials' spread: the standard deviation within groups, pooled
         (ddof 1); zero without repeated trials."""
         logf = self.log_features()
-        var, dof = np.zeros(logf.shape[1]), 0
+        var, dof = np.zeros(logf.shape[1]), np.zeros(logf.shape[1])
         for gi in range(len(self.groups)):
             rows = logf[self.run_group == gi]
-            if len(rows) > 1:
-                var += ((rows - rows.mean(axis=0)) ** 2).sum(axis=0)
-                dof += len(rows) - 1
-        return np.nan_to_num(np.sqrt(var / dof)) if dof else np.zeros(logf.shape[1])
+            counted = (~np.isnan(rows)).sum(axis=0)  # a feature unscored in a group (NaN)
+            usable = counted > 1  # does not count there
+            if usable.any():
+                dev = rows[:, usable] - np.nanmean(rows[:, usable], axis=0)
+                var[usable] += np.nansum(dev ** 2, axis=0)
+                dof[usable] += counted[usable] - 1
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.nan_to_num(np.sqrt(var / dof))
 
     def scales(self) -> np.ndarray:
         """Per feature, the scale a discrepancy is measured in: the trials' spread, at
@@ -246,19 +312,18 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
         g = jobs[j][1][k]
         nstep = int(round(duration_s / m.opt.timestep))
         ctrl = DriveGeometry.from_model(m).ramp(m, g.v_mps, g.omega_deg_s, nstep)
-        states, sensors = mujoco.rollout.rollout(m, mujoco.MjData(m), state[None], ctrl[None],
-                                                 nstep=nstep)
-        run: Run = _run_from_rollout(m, states[0], sensors[0], ctrl[-1], state[0])
+        run = runs_from_rest(m, ctrl[None], nthread=1, settled=state)[0]
         time_s, accel = chain.log(run)
-        return j, k, time_s, accel, run.mean_yaw_rate_deg_s()
+        rates = wheel_rates_hz(m, g.v_mps, g.omega_deg_s)
+        return j, k, time_s, accel, run.mean_yaw_rate_deg_s(), rates
 
     results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
                          np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
     with ThreadPoolExecutor(max_workers=max(1, nthread)) as pool:
-        for j, k, time_s, accel, yaw in pool.map(one, tasks):
+        for j, k, time_s, accel, yaw, rates in pool.map(one, tasks):
             r = results[j]
             r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
-            r.features[k] = run_features(time_s, accel)
+            r.features[k] = run_features(time_s, accel, rates)
             if progress:
                 progress(1)
     return results
@@ -293,29 +358,24 @@ class Comparison:
         return out
 
     def z_scores(self, sim_features: np.ndarray, runs: np.ndarray,
-                 bias_runs: np.ndarray | None = None,
-                 extra_spread: np.ndarray | None = None) -> np.ndarray:
+                 bias_runs: np.ndarray | None = None) -> np.ndarray:
         """(len(runs), n_features): (simulated - measured) / spread per run.
 
         The centripetal mean carries the sensor's unknown zero-g error on a_x (a
         constant for the dataset); it is removed as the median difference over
         bias_runs (default: runs), the way a fit removes a nuisance offset.
-        extra_spread: the simulation's own uncertainty per feature (realisations of a
-        random geometry), added in quadrature to the trials' spread.
         """
         sim = self.simulated_log(sim_features)[self.observed.run_group]
         diff = sim - self.measured
         bias_runs = runs if bias_runs is None else bias_runs
         diff[:, -1] -= np.median(diff[bias_runs, -1])
-        scale = self.scale if extra_spread is None else np.hypot(self.scale, extra_spread)
-        return diff[runs] / scale
+        return diff[runs] / self.scale
 
     def error(self, sim_features: np.ndarray, runs: np.ndarray,
-              bias_runs: np.ndarray | None = None,
-              extra_spread: np.ndarray | None = None) -> float:
+              bias_runs: np.ndarray | None = None) -> float:
         """RMS z-score over runs and features: ~1 for a simulation as close to the
         measurements as one trial is to the next."""
-        z = self.z_scores(sim_features, runs, bias_runs, extra_spread)
+        z = self.z_scores(sim_features, runs, bias_runs)
         return float(np.sqrt(np.nanmean(z ** 2)))
 
     def run_errors(self, sim_features: np.ndarray, runs: np.ndarray,
@@ -332,7 +392,9 @@ class Comparison:
         out = []
         for gi, g in enumerate(self.observed.groups):
             rows = self.observed.run_group == gi
-            zbar = np.nanmean(z[rows], axis=0)
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # unscored features: NaN
+                zbar = np.nanmean(z[rows], axis=0)
             for f in np.flatnonzero(np.abs(zbar) > SIGNIFICANT_Z):
                 kind = "centripetal" if f == N_POWER else "log10_band_power"
                 out.append({"group": g.label, "feature": names[f], "kind": kind,
@@ -362,3 +424,16 @@ def model_factory(model: str | None = None, edit: Callable[[mujoco.MjSpec], None
         return load_model(model or setup.config, setup.surface, timestep=timestep, edit=edits)
 
     return build
+
+
+def group_wheel_rates(factory: ModelFactory) -> Callable[[Group], tuple[float, ...]]:
+    """Group -> its wheels' rotation rates (Hz) on the models factory builds (one build
+    per setup)."""
+    models: dict[Setup, mujoco.MjModel] = {}
+
+    def rates(g: Group) -> tuple[float, ...]:
+        if g.setup not in models:
+            models[g.setup] = factory(g.setup)
+        return wheel_rates_hz(models[g.setup], g.v_mps, g.omega_deg_s)
+
+    return rates

@@ -251,7 +251,7 @@ def _skipped(skipped: list[dict]) -> list[str]:
 
 
 def write_extended_model(path: Path, cause: str, parameters: dict, setup, model: str | None,
-                         timestep: float | None) -> Path:
+                         timestep: float | None, realisation: int | None = None) -> Path:
     """The extended model as one MJCF file (includes flattened) that `skidsteer view` opens."""
     from skidsteer.experiments import _wheel_mount
     from skidsteer.models import load_spec
@@ -260,11 +260,12 @@ def write_extended_model(path: Path, cause: str, parameters: dict, setup, model:
     spec = load_spec(model or setup.config, setup.surface, timestep=timestep)
     if setup.mount == "wheel":
         _wheel_mount(spec)
-    c.apply(spec, parameters, 0)
+    c.apply(spec, parameters, realisation or 0)
     spec.compile()
     xml = spec.to_xml()
     header = (f"<!-- skidsteer diagnose: the {setup.config} robot on {setup.surface} extended "
-              f"by cause {cause} ({c.summary}), parameters {json.dumps(parameters)}.  Open "
+              f"by cause {cause} ({c.summary}), parameters {json.dumps(parameters)}"
+              + (f", realisation {realisation}" if realisation is not None else "") + ".  Open "
               f"with `skidsteer view {path.name}`. -->\n")
     return write_text(path, header + xml)
 
@@ -280,7 +281,8 @@ def write_outputs(out: Path, diagnosis: dict, observed: Observed, comparison: Co
     rows = group_table(observed, comparison, shown)
     if named is not None:
         path = write_extended_model(out / "extended_model.xml", named.cause, named.parameters,
-                                    observed.groups[0].setup, model, timestep)
+                                    observed.groups[0].setup, model, timestep,
+                                    named.realisation)
         diagnosis["extended_model"] = path.name
     write_json(out / "diagnosis.json", diagnosis)
     g = diagnosis["gain"]

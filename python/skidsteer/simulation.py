@@ -249,11 +249,13 @@ def run_batch(models: list[mujoco.MjModel], commands: list[tuple[float, float]],
 
 
 def runs_from_rest(m: mujoco.MjModel, controls: np.ndarray, settle_s: float = 2.0,
-                   nthread: int = 2, seeds: list[int | None] | None = None) -> list[Run]:
+                   nthread: int = 2, seeds: list[int | None] | None = None,
+                   settled: np.ndarray | None = None) -> list[Run]:
     """One run per (nstep, nu) control sequence in controls (k, nstep, nu), each from the
-    model settled once (settle_s), perturbed by seeds[k] (see perturbed), stepped in
-    one mujoco.rollout call on nthread threads."""
-    settled = settle(m, mujoco.MjData(m), settle_s)
+    model settled once (settle_s; or the given settled state), perturbed by seeds[k]
+    (see perturbed), stepped in one mujoco.rollout call on nthread threads."""
+    if settled is None:
+        settled = settle(m, mujoco.MjData(m), settle_s)
     initial = np.stack([perturbed(m, settled, seeds[k] if seeds else None)
                         for k in range(len(controls))])
     datas = [mujoco.MjData(m) for _ in range(max(1, min(nthread, len(controls))))]

@@ -7,7 +7,8 @@ seed)``, which edits an MjSpec of the robot in place.  Adding a cause is adding
 a module; the registry finds it.  ``seed`` picks the realisation of causes
 with a random geometry (a rough floor, the phases of eccentric wheels); the
 diagnosis never knows the realisation behind measured data, so its features
-are statistical (band powers), not phase-exact.
+are statistical (band powers, line powers), not phase-exact, and it picks the
+realisation, among a few draws, that fits the training runs best.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ class Cause:
     # the end of its prior nearest to it
     null_value: float
     # True when apply's seed changes the geometry (a rough floor, wheel phases):
-    # the diagnosis then adds the spread between realisations to the trials'
+    # the diagnosis then chooses the realisation too (diagnosis.fit_cause)
     random_realisation: bool = False
 
     def parameters(self, main_value: float | None = None,
