@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import statistics
 import time
 
@@ -48,6 +47,7 @@ import skidsteer
 from skidsteer.models import tire_instance
 from skidsteer.simulation import FULLPHYSICS, DriveGeometry, get_state, sensor_slice, settle
 from skidsteer.tire_reference import FLOOR_FRICTION
+from _machine import loadavg, machine
 
 TARGET_RATIO = 1.25  # issue 6: plugin <= 1.25 x native
 WHEELS = ("wheel1", "wheel2", "wheel3", "wheel4")
@@ -98,19 +98,6 @@ def bare_edit(spec: mujoco.MjSpec) -> None:
 
 VARIANTS = {"plugin": None, "native": native_edit, "native_armature": native_armature_edit,
             "bare": bare_edit}
-
-
-def machine() -> str:
-    return (f"{platform.system()} {platform.release()}, {platform.machine()}, "
-            f"{platform.processor() or 'cpu'}, os.cpu_count()={os.cpu_count()}, "
-            f"Python {platform.python_version()}, mujoco {mujoco.__version__}")
-
-
-def loadavg() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except OSError:
-        return None
 
 
 def prepare(name: str, timestep: float, control: np.ndarray) -> dict:

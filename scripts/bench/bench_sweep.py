@@ -27,7 +27,6 @@ import argparse
 import hashlib
 import json
 import os
-import platform
 import tempfile
 import time
 from pathlib import Path
@@ -38,22 +37,10 @@ import skidsteer  # noqa: F401  (registers the plugin)
 import skidsteer.simulation as simulation
 import skidsteer.sweep as sweep
 from skidsteer.models import FLOORS
+from _machine import loadavg, machine
 
 TARGET_S = 120.0  # issue 6: within 2 minutes on this 2-core machine
 SETTLE_S = 2.0  # run_batch's default, used by run_sweep
-
-
-def machine() -> str:
-    return (f"{platform.system()} {platform.release()}, {platform.machine()}, "
-            f"os.cpu_count()={os.cpu_count()}, Python {platform.python_version()}, "
-            f"mujoco {mujoco.__version__}")
-
-
-def loadavg() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except OSError:
-        return None
 
 
 class Timed:

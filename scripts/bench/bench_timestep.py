@@ -57,7 +57,6 @@ import argparse
 import json
 import math
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -74,6 +73,7 @@ from skidsteer.experiments import FREE_RESPONSE_AXES, release  # noqa: E402
 from skidsteer.simulation import (LOG_RATE_HZ, decimate, rollout,  # noqa: E402
                                   run_commanded, sensor_slice, set_state, settle)
 from timestep_study import AMPLITUDE_FLOOR, BAND_RMS_FLOOR, unstable_reason  # noqa: E402
+from _machine import loadavg, machine
 
 STEPS = [1e-5, 2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3]
 QUICK_STEPS = [1e-4, 5e-4, 1e-3]
@@ -83,19 +83,6 @@ YAW_TOL = 0.01
 SETTLE_S = 2.0
 TRANSIENT_S = 3.0  # yaw rate: after the ramp and the start-up transient
 ONE_G = 9.81
-
-
-def machine() -> str:
-    return (f"{platform.system()} {platform.release()}, {platform.machine()}, "
-            f"os.cpu_count()={os.cpu_count()}, Python {platform.python_version()}, "
-            f"mujoco {mujoco.__version__}")
-
-
-def loadavg() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except OSError:
-        return None
 
 
 def log_factor(dt: float) -> int:
