@@ -31,7 +31,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import mujoco
 
 import skidsteer  # noqa: F401  (registers the plugin)
 import skidsteer.simulation as simulation
