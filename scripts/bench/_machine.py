@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import platform
+from pathlib import Path
 
 import mujoco
 
@@ -21,3 +22,12 @@ def loadavg() -> list[float] | None:
         return [round(x, 2) for x in os.getloadavg()]
     except OSError:
         return None
+
+
+def save_results(path, benchmark: str, **fields) -> None:
+    """A benchmark's results as strict JSON, written atomically, with the machine."""
+    from skidsteer.diagnosis_report import write_json
+
+    write_json(Path(path), {"benchmark": benchmark, "machine": machine(),
+                            "cpu_count": os.cpu_count(), **fields})
+    print(f"wrote {path}")

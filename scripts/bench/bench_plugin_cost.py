@@ -34,8 +34,6 @@ deviation show whether it is a working robot.
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
 import time
 
@@ -47,7 +45,7 @@ import skidsteer
 from skidsteer.models import tire_instance
 from skidsteer.simulation import FULLPHYSICS, DriveGeometry, get_state, sensor_slice, settle
 from skidsteer.tire_reference import FLOOR_FRICTION
-from _machine import loadavg, machine
+from _machine import loadavg, machine, save_results
 
 TARGET_RATIO = 1.25  # issue 6: plugin <= 1.25 x native
 WHEELS = ("wheel1", "wheel2", "wheel3", "wheel4")
@@ -208,14 +206,10 @@ def main() -> None:
     print_tables(results, args)
     print(f"\nload average after: {load_after}; benchmark wall time {total:.0f} s")
     if args.json:
-        summary = {"benchmark": "plugin_cost", "machine": machine(), "cpu_count": os.cpu_count(),
-                   "loadavg_before": load_before, "loadavg_after": load_after,
-                   "omega_deg_s": args.omega, "duration_s": args.duration,
-                   "repeats": args.repeats, "quick": args.quick, "wall_s": total,
-                   "target_ratio": TARGET_RATIO, "results": results}
-        with open(args.json, "w") as fh:
-            json.dump(summary, fh, indent=2)
-        print(f"wrote {args.json}")
+        save_results(args.json, "plugin_cost", loadavg_before=load_before,
+                     loadavg_after=load_after, omega_deg_s=args.omega,
+                     duration_s=args.duration, repeats=args.repeats, quick=args.quick,
+                     wall_s=total, target_ratio=TARGET_RATIO, results=results)
 
 
 if __name__ == "__main__":

@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -36,7 +34,7 @@ import skidsteer  # noqa: F401  (registers the plugin)
 import skidsteer.simulation as simulation
 import skidsteer.sweep as sweep
 from skidsteer.models import FLOORS
-from _machine import loadavg, machine
+from _machine import loadavg, machine, save_results
 
 TARGET_S = 120.0  # issue 6: within 2 minutes on this 2-core machine
 SETTLE_S = 2.0  # run_batch's default, used by run_sweep
@@ -135,14 +133,10 @@ def main() -> None:
     identical = len({r["digest"] for r in results}) == 1
     print(f"\nidentical files across thread counts: {identical}")
     if args.json:
-        out = {"benchmark": "sweep", "machine": machine(), "cpu_count": os.cpu_count(),
-               "quick": args.quick, "runs": len(runs), "omegas_deg_s": omegas,
-               "floors": list(FLOORS), "duration_s": args.duration, "timestep_s": timestep,
-               "swivel_steps": swivel_steps, "target_s": TARGET_S, "identical_files": identical,
-               "results": results}
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=2)
-        print(f"wrote {args.json}")
+        save_results(args.json, "sweep", quick=args.quick, runs=len(runs),
+                     omegas_deg_s=omegas, floors=list(FLOORS), duration_s=args.duration,
+                     timestep_s=timestep, swivel_steps=swivel_steps, target_s=TARGET_S,
+                     identical_files=identical, results=results)
 
 
 if __name__ == "__main__":

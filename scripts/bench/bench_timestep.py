@@ -56,7 +56,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -73,7 +72,7 @@ from skidsteer.experiments import FREE_RESPONSE_AXES, release  # noqa: E402
 from skidsteer.simulation import (LOG_RATE_HZ, decimate, rollout,  # noqa: E402
                                   run_commanded, sensor_slice, set_state, settle)
 from timestep_study import AMPLITUDE_FLOOR, BAND_RMS_FLOOR, unstable_reason  # noqa: E402
-from _machine import loadavg, machine
+from _machine import loadavg, machine, save_results
 
 STEPS = [1e-5, 2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3]
 QUICK_STEPS = [1e-4, 5e-4, 1e-3]
@@ -347,17 +346,14 @@ def main() -> None:
     load_after = loadavg()
     print(f"load average after: {load_after}; benchmark wall time {total:.0f} s")
     if args.json:
-        out = {"benchmark": "timestep", "machine": machine(), "cpu_count": os.cpu_count(),
-               "loadavg_before": load_before, "loadavg_after": load_after,
-               "quick": args.quick, "omegas_deg_s": args.omegas, "duration_s": args.duration,
-               "tolerances": {"frequency_hz": FREQ_TOL_HZ, "amplitude_rel": AMP_TOL,
-                              "amplitude_floor_m_s2": AMPLITUDE_FLOOR,
-                              "band_rms_floor_m_s2": BAND_RMS_FLOOR, "yaw_rate_rel": YAW_TOL},
-               "wall_s": total, **summary, "rows": rows, "chaos_repeat": repeat,
-               "half_step_free_responses": half_step}
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=2)
-        print(f"wrote {args.json}")
+        save_results(args.json, "timestep", loadavg_before=load_before,
+                     loadavg_after=load_after, quick=args.quick, omegas_deg_s=args.omegas,
+                     duration_s=args.duration,
+                     tolerances={"frequency_hz": FREQ_TOL_HZ, "amplitude_rel": AMP_TOL,
+                                 "amplitude_floor_m_s2": AMPLITUDE_FLOOR,
+                                 "band_rms_floor_m_s2": BAND_RMS_FLOOR, "yaw_rate_rel": YAW_TOL},
+                     wall_s=total, **summary, rows=rows, chaos_repeat=repeat,
+                     half_step_free_responses=half_step)
 
 
 if __name__ == "__main__":
