@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs skidsteer into a virtualenv (.venv by default), building the C plugin.
 # Usage: scripts/install.sh [--test]
-#   --test  also the test dependencies, and the system packages the rendering
-#           tests need (Xvfb; EGL/Mesa), installed with apt-get when possible.
+#   --test  also the test dependencies, the ray extra (the Ray backend's tests
+#           run against a local Ray instance), and the system packages the
+#           rendering tests need (Xvfb; EGL/Mesa), installed with apt-get when possible.
 # Environment: PYTHON (default python3), SKIDSTEER_VENV (default .venv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -50,7 +51,7 @@ fi
 [[ -x "$VENV/bin/python" ]] || "$PYTHON" -m venv "$VENV"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 if [[ $with_tests -eq 1 ]]; then
-  "$VENV/bin/python" -m pip install --quiet ".[test]"
+  "$VENV/bin/python" -m pip install --quiet ".[test,ray]"
 else
   "$VENV/bin/python" -m pip install --quiet .
 fi

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -14,6 +15,30 @@ import numpy as np
 
 def _print_json(data: dict) -> None:
     print(json.dumps(data, indent=2))
+
+
+def _add_backend_options(p: argparse.ArgumentParser) -> None:
+    from skidsteer.backends import BACKENDS
+
+    p.add_argument("--threads", type=int, default=2, help="threads of the local backend")
+    p.add_argument("--backend", choices=BACKENDS, default="local",
+                   help="where the runs step: threads on this machine, or one Ray task per "
+                        "run (pip install 'skidsteer[ray]'); the numbers are the same")
+    p.add_argument("--address", default=None,
+                   help="the Ray cluster: 'auto' (the one running on this machine), "
+                        "'ray://HOST:10001' (Ray Client) or a head node's HOST:6379; "
+                        "default: start a Ray instance on this machine")
+
+
+@contextlib.contextmanager
+def _backend(args: argparse.Namespace):
+    from skidsteer.backends import make_backend
+
+    backend = make_backend(args.backend, nthread=args.threads, address=args.address)
+    try:
+        yield backend
+    finally:
+        backend.close()
 
 
 def cmd_swivel(args: argparse.Namespace) -> int:
@@ -122,7 +147,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 mount=args.mount, variant=args.variant, suffix="." + args.format,
                 seed=args.seed)
     started = time.perf_counter()
-    run_sweep(Path(args.out), runs, nthread=args.threads, progress=not args.quiet)
+    with _backend(args) as backend:
+        run_sweep(Path(args.out), runs, progress=not args.quiet, backend=backend)
     print(f"{len(runs)} runs in {args.out} ({time.perf_counter() - started:.1f} s)")
     return 0
 
@@ -144,8 +170,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 def cmd_reproduce(args: argparse.Namespace) -> int:
     from skidsteer.report import reproduce
 
-    report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
-                       progress=not args.quiet)
+    with _backend(args) as backend:
+        report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
+                           progress=not args.quiet, backend=backend)
     print(f"report: {report}")
     return 0
 
@@ -203,9 +230,10 @@ def _run_on_dataset(func, args: argparse.Namespace, **extra):
     from skidsteer.measured import DataError
 
     try:
-        result = func(args.dataset, args.out, model=args.model, nthread=args.threads,
-                      progress=not args.no_progress, timestep=args.timestep,
-                      figures=not args.no_figures, **extra)
+        with _backend(args) as backend:
+            result = func(args.dataset, args.out, model=args.model,
+                          progress=not args.no_progress, timestep=args.timestep,
+                          figures=not args.no_figures, backend=backend, **extra)
     except (DataError, ValueError, FileNotFoundError) as err:
         print(f"skidsteer: {err}", file=sys.stderr)
         return None, 2
@@ -333,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=float, default=20.0)
     p.add_argument("--format", choices=("csv", "xlsx"), default="csv")
-    p.add_argument("--threads", type=int, default=2)
+    _add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
@@ -347,7 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="every thesis experiment, report against its figures")
     p.add_argument("--out", required=True, help="directory for report.md, results.json, figures")
     p.add_argument("--quick", action="store_true", help="fewer omegas and shorter runs")
-    p.add_argument("--threads", type=int, default=2)
+    _add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_reproduce)
 
@@ -370,7 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--cause", action="append",
                            help="fit only this candidate (repeatable; default: all)")
         p.add_argument("--timestep", type=float, default=None, help="simulation time step, s")
-        p.add_argument("--threads", type=int, default=2)
+        _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")
         p.add_argument("--no-figures", action="store_true")
         p.add_argument("--json", action="store_true")
@@ -402,10 +430,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     import skidsteer  # noqa: F401  (registers the plugin)
 
+    from skidsteer.backends import BackendUnavailable
+
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as error:
+    except (ValueError, FileNotFoundError, BackendUnavailable) as error:
         print(f"skidsteer: error: {error}", file=sys.stderr)
         return 2
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Sequence
 
 import mujoco
@@ -32,7 +31,7 @@ from scipy import signal
 
 from skidsteer.measured import Dataset, RunInfo
 from skidsteer.sensor_chain import SensorChain
-from skidsteer.simulation import DriveGeometry, runs_from_rest, settle
+from skidsteer.simulation import DriveGeometry, run_from_settled, settle
 
 AXES = "xyz"
 START_WINDOW_S = 3.0  # ramp (<= 0.64 s at 64 deg/s) plus ~2 decay times of the slowest mode
@@ -279,54 +278,45 @@ ModelFactory = Callable[[Setup], mujoco.MjModel]
 
 def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: float,
                     chain: SensorChain = SensorChain(), settle_s: float = 2.0,
-                    nthread: int = 2, progress: Callable[[int], None] | None = None
-                    ) -> list[Simulated]:
+                    nthread: int = 2, progress: Callable[[int], None] | None = None,
+                    backend=None) -> list[Simulated]:
     """For each (model factory, groups) job, each group simulated once from rest.
 
-    Models are built once per (job, setup); the (model, group) runs step in C
-    through mujoco.rollout, nthread at a time (rollout releases the GIL).
+    Models are built and settled once per (job, setup) here; the (model, group)
+    runs are `simulate_group` tasks on the backend (default: nthread threads).
     """
-    tasks = []  # (job index, group index, model, settled state)
-    models: dict[tuple[int, Setup], tuple[mujoco.MjModel, np.ndarray]] = {}
+    from skidsteer.backends import LocalBackend
+
+    backend = backend or LocalBackend(nthread)
+    shared: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, settled state)
+    tasks, where = [], []
     for j, (factory, groups) in enumerate(jobs):
         for k, g in enumerate(groups):
             key = (j, g.setup)
-            if key not in models:
+            if key not in shared:
                 m = factory(g.setup)
-                models[key] = (m, None)
-            tasks.append((j, k, key))
-
-    def settled(key):
-        m, state = models[key]
-        if state is None:
-            state = settle(m, mujoco.MjData(m), settle_s)
-            models[key] = (m, state)
-        return m, state
-
-    for key in list(models):  # settle once per model (cheap: 2 s of rest)
-        settled(key)
-
-    def one(task):
-        j, k, key = task
-        m, state = models[key]
-        g = jobs[j][1][k]
-        nstep = int(round(duration_s / m.opt.timestep))
-        ctrl = DriveGeometry.from_model(m).ramp(m, g.v_mps, g.omega_deg_s, nstep)
-        run = runs_from_rest(m, ctrl[None], nthread=1, settled=state)[0]
-        time_s, accel = chain.log(run)
-        rates = wheel_rates_hz(m, g.v_mps, g.omega_deg_s)
-        return j, k, time_s, accel, run.mean_yaw_rate_deg_s(), rates
-
+                shared[key] = (backend.share(m),
+                               backend.share(settle(m, mujoco.MjData(m), settle_s)))
+            tasks.append((*shared[key], g.v_mps, g.omega_deg_s, duration_s, chain))
+            where.append((j, k))
     results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
                          np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
-    with ThreadPoolExecutor(max_workers=max(1, nthread)) as pool:
-        for j, k, time_s, accel, yaw, rates in pool.map(one, tasks):
-            r = results[j]
-            r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
-            r.features[k] = run_features(time_s, accel, rates)
-            if progress:
-                progress(1)
+    for (j, k), (time_s, accel, yaw, rates) in zip(where, backend.map(simulate_group, tasks)):
+        r = results[j]
+        r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
+        r.features[k] = run_features(time_s, accel, rates)
+        if progress:
+            progress(1)
     return results
+
+
+def simulate_group(m: mujoco.MjModel, settled: np.ndarray, v_mps: float, omega_deg_s: float,
+                   duration_s: float, chain: SensorChain):
+    """One command from the settled state, as the sensor chain logs it: (time_s, accel,
+    mean yaw rate in deg/s, the wheels' rotation rates in Hz).  A backend task."""
+    run = run_from_settled(m, settled, v_mps, omega_deg_s, duration_s)
+    time_s, accel = chain.log(run)
+    return time_s, accel, run.mean_yaw_rate_deg_s(), wheel_rates_hz(m, v_mps, omega_deg_s)
 
 
 # ------------------------------------------------------------------ comparison

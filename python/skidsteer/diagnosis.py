@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
 from skidsteer import causes as cause_registry
+from skidsteer.backends import LocalBackend
 from skidsteer.comparison import (Comparison, Group, Observed, Simulated, group_wheel_rates,
                                   model_factory, simulate_groups)
 from skidsteer.measured import read_dataset
@@ -94,9 +97,11 @@ class _Progress:
 
         self.bar = tqdm(total=total, unit="run", desc="diagnose", file=sys.stderr,
                         disable=not enabled)
+        self.lock = threading.Lock()  # fits on a cluster report from several threads
 
     def __call__(self, n: int) -> None:
-        self.bar.update(n)
+        with self.lock:
+            self.bar.update(n)
 
     def close(self) -> None:
         self.bar.close()
@@ -126,7 +131,7 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, log: bool):
 
 def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: float,
               train: np.ndarray, held: np.ndarray, model: str | None, timestep: float | None,
-              chain: SensorChain, nthread: int, progress) -> Fit:
+              chain: SensorChain, backend, progress) -> Fit:
     main = cause.main
     cache: dict[tuple[float, int], tuple[float, Simulated]] = {}
 
@@ -137,7 +142,7 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
         if todo:
             jobs = [(model_factory(model, cause.edit(cause.parameters(v), r), timestep), groups)
                     for v, r in todo]
-            for p, sim in zip(todo, simulate_groups(jobs, duration_s, chain, nthread=nthread,
+            for p, sim in zip(todo, simulate_groups(jobs, duration_s, chain, backend=backend,
                                                     progress=progress)):
                 cache[p] = (comparison.error(sim.features, train), sim)
         return [cache[p][0] for p in points]
@@ -229,10 +234,16 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float
 def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
-             figures: bool = True) -> dict:
+             figures: bool = True, backend=None) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
-    extended model to out_dir when given.  Returns the diagnosis."""
+    extended model to out_dir when given.  Returns the diagnosis.
+
+    backend: where the simulations run (skidsteer.backends; default nthread local
+    threads).  On a backend wider than one fit's batch (a Ray cluster) the candidate
+    causes are fitted concurrently; the numbers are the same either way.
+    """
     started = time.time()
+    backend = backend or LocalBackend(nthread)
     dataset = read_dataset(dataset_dir)
     observed = Observed.from_dataset(dataset, group_wheel_rates(model_factory(model)))
     comparison = Comparison(observed)
@@ -248,18 +259,24 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     bar = _Progress(len(groups) * (1 + sum(per_fit.values())), progress)
     try:
         base = simulate_groups([(model_factory(model, timestep=timestep), groups)],
-                               observed.duration_s, chain, nthread=nthread, progress=bar)[0]
+                               observed.duration_s, chain, backend=backend, progress=bar)[0]
         base_error = comparison.error(base.features, all_runs)
         base_held = comparison.error(base.features, held, bias_runs=train)
         fits, not_applicable = [], []
         if base_error > Z_CONSISTENT:
-            for name in names:
-                cause = cause_registry.get(name)
+            def fit(name):
                 try:
-                    fits.append(fit_cause(cause, comparison, groups, observed.duration_s, train,
-                                          held, model, timestep, chain, nthread, bar))
+                    return fit_cause(cause_registry.get(name), comparison, groups,
+                                     observed.duration_s, train, held, model, timestep, chain,
+                                     backend, bar)
                 except cause_registry.NotApplicable as err:
-                    not_applicable.append({"cause": name, "reason": str(err)})
+                    return {"cause": name, "reason": str(err)}
+
+            one_fit_batch = len(groups) * max(GRID_POINTS, REALISATIONS)
+            workers = len(names) if backend.concurrency > one_fit_batch else 1
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                for outcome in pool.map(fit, names):  # in the candidates' order
+                    (fits if isinstance(outcome, Fit) else not_applicable).append(outcome)
     finally:
         bar.close()
     fits.sort(key=lambda f: f.score)
@@ -316,7 +333,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
 
 def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int = 2,
             progress: bool = True, timestep: float | None = None,
-            chain: SensorChain = SensorChain(), figures: bool = True) -> dict:
+            chain: SensorChain = SensorChain(), figures: bool = True, backend=None) -> dict:
     """Simulates every command of a dataset with the base model and scores each feature
     against the trials' spread; writes comparison.json, report.md and figures."""
     started = time.time()
@@ -326,7 +343,8 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
     bar = _Progress(len(observed.groups), progress)
     try:
         base = simulate_groups([(model_factory(model, timestep=timestep), observed.groups)],
-                               observed.duration_s, chain, nthread=nthread, progress=bar)[0]
+                               observed.duration_s, chain, nthread=nthread, progress=bar,
+                               backend=backend)[0]
     finally:
         bar.close()
     all_runs = np.arange(len(observed.run_group))

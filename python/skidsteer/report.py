@@ -135,7 +135,8 @@ def wheel_lift(nthread: int) -> list[dict]:
     return rows
 
 
-def swivel_datasets(out: Path, quick: bool, nthread: int, progress: bool) -> dict:
+def swivel_datasets(out: Path, quick: bool, nthread: int, progress: bool,
+                    backend=None) -> dict:
     """Simulated datasets in the measured-data layout, analysed as Appendix A."""
     from skidsteer.analysis import analyze_paths
     from skidsteer.sweep import plan, run_sweep
@@ -153,7 +154,7 @@ def swivel_datasets(out: Path, quick: bool, nthread: int, progress: bool) -> dic
     }
     analyses = {}
     for name, runs in sets.items():
-        run_sweep(data / name, runs, nthread=nthread, progress=progress)
+        run_sweep(data / name, runs, nthread=nthread, progress=progress, backend=backend)
         analyses[name] = analyze_paths(data / name, out / "analysis" / name, figures=False)
     return analyses
 
@@ -384,8 +385,11 @@ def _feature_cause(key: str) -> str:
 
 # ------------------------------------------------------------------ report
 
-def reproduce(out: Path, quick: bool = False, nthread: int = 2, progress: bool = True) -> Path:
-    """Runs every experiment; writes out/report.md, out/results.json and figures."""
+def reproduce(out: Path, quick: bool = False, nthread: int = 2, progress: bool = True,
+              backend=None) -> Path:
+    """Runs every experiment; writes out/report.md, out/results.json and figures.  The
+    swivel sweeps run on backend (skidsteer.backends; default nthread local threads),
+    the rest here."""
     from skidsteer import figures as fig
 
     out = Path(out)
@@ -404,7 +408,7 @@ def reproduce(out: Path, quick: bool = False, nthread: int = 2, progress: bool =
         r.pop("trace")
     results["straight"] = straight_runs()
     results["wheel_lift"] = wheel_lift(nthread)
-    analyses = swivel_datasets(out, quick, nthread, progress)
+    analyses = swivel_datasets(out, quick, nthread, progress, backend)
     for name, analysis in analyses.items():
         summary = analysis["summary"]
         if not summary:  # every run skipped: the reasons are in results.json

@@ -265,6 +265,16 @@ def runs_from_rest(m: mujoco.MjModel, controls: np.ndarray, settle_s: float = 2.
             for k in range(len(controls))]
 
 
+def run_from_settled(m: mujoco.MjModel, settled: np.ndarray, v_mps: float, omega_deg_s: float,
+                     duration_s: float, seed: int | None = None) -> Run:
+    """One run on one thread: from the settled state (perturbed by seed), driven at
+    (v_x*, omega_z* deg/s) ramped in at the firmware's limits (DriveGeometry.ramp).  The
+    unit of work of sweeps and diagnoses on any backend (skidsteer.backends)."""
+    nstep = int(round(duration_s / m.opt.timestep))
+    ctrl = DriveGeometry.from_model(m).ramp(m, v_mps, omega_deg_s, nstep)
+    return runs_from_rest(m, ctrl[None], nthread=1, seeds=[seed], settled=settled)[0]
+
+
 def swivel(m: mujoco.MjModel, omega_deg_s: float, duration_s: float = 20.0,
            settle_s: float = 2.0) -> Run:
     """Swivel in place (v_x* = 0) at omega_z* deg/s, as in Sec. 3.2."""

@@ -2,8 +2,9 @@
 
 The directory has the layout of shared/spec/measured-data.md (runs.csv plus
 one file per run), so simulated and measured runs go through one reader.
-Runs of one model step together in mujoco.rollout batches; every file is
-written atomically and a rerun skips the runs whose file already exists, so
+Each model is built and settled once and its runs are tasks on a backend
+(threads here, or a Ray cluster: skidsteer.backends); every file is written
+atomically and a rerun skips the runs whose file already exists, so
 an interrupted sweep resumes where it stopped.
 """
 
@@ -20,7 +21,6 @@ from typing import Iterable
 from skidsteer.measured import RunInfo, write_run, write_runs_csv
 
 THESIS_OMEGAS_DEG_S = tuple(range(2, 65, 2))  # Sec. 3.2: 2 to 64 deg/s in steps of 2
-BATCH_PER_THREAD = 2  # runs per thread per rollout call: ~90 MB of trajectory per 20 s run
 
 
 def run_file_name(v_mps: float, omega_deg_s: float, duration_s: float, config: str,
@@ -68,38 +68,52 @@ def _stable_seed(*parts) -> int:
 
 
 def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
-              progress: bool = True) -> list[RunInfo]:
-    """Simulates the planned runs not yet on disk; writes their files and runs.csv."""
-    from skidsteer.experiments import swivel_model
-    from skidsteer.simulation import run_batch
+              progress: bool = True, backend=None) -> list[RunInfo]:
+    """Simulates the planned runs not yet on disk; writes their files and runs.csv.
 
+    Each model is built and settled once; its runs are `sweep_run` tasks on the
+    backend (skidsteer.backends; default: nthread threads here).  Files are written
+    here, each as soon as its run is back, so an interrupted sweep keeps them.
+    """
+    import mujoco
+
+    from skidsteer.backends import LocalBackend
+    from skidsteer.experiments import swivel_model
+    from skidsteer.simulation import settle
+
+    backend = backend or LocalBackend(nthread)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     todo = [r for r in runs if not (out_dir / r.info.file).is_file()]
-    bar = _progress(len(runs), len(runs) - len(todo), progress)
     groups: dict[tuple, list[PlannedRun]] = {}
     for r in todo:
         key = (r.info.config, r.info.surface, r.info.mount, r.variant, r.duration_s)
         groups.setdefault(key, []).append(r)
+    tasks, planned = [], []
+    for (config, surface, mount, variant, duration), group in groups.items():
+        m = swivel_model(config, surface, mount, variant)
+        shared = backend.share(m), backend.share(settle(m, mujoco.MjData(m)))
+        for r in group:
+            tasks.append((*shared, r.info.v_mps, r.info.omega_deg_s, duration, r.seed))
+            planned.append(r)
+    bar = _progress(len(runs), len(runs) - len(todo), progress)
     try:
-        for (config, surface, mount, variant, duration), group in groups.items():
-            m = swivel_model(config, surface, mount, variant)
-            size = max(1, nthread * BATCH_PER_THREAD)
-            for start in range(0, len(group), size):
-                chunk = group[start:start + size]
-                simulated = run_batch([m] * len(chunk),
-                                      [(r.info.v_mps, r.info.omega_deg_s) for r in chunk],
-                                      duration, nthread=nthread,
-                                      seeds=[r.seed for r in chunk])
-                for r, run in zip(chunk, simulated):
-                    time_s, accel = run.accelerometer_log()
-                    write_run(out_dir / r.info.file, time_s, accel)
-                    bar.update(1)
+        for r, (time_s, accel) in zip(planned, backend.map(sweep_run, tasks)):
+            write_run(out_dir / r.info.file, time_s, accel)
+            bar.update(1)
     finally:
         bar.close()
     infos = [r.info for r in runs]
     write_runs_csv(out_dir, infos)
     return infos
+
+
+def sweep_run(m, settled, v_mps: float, omega_deg_s: float, duration_s: float,
+              seed: int | None):
+    """One planned run's accelerometer log (time_s, accel at 1 kHz).  A backend task."""
+    from skidsteer.simulation import run_from_settled
+
+    return run_from_settled(m, settled, v_mps, omega_deg_s, duration_s, seed).accelerometer_log()
 
 
 def _progress(total: int, done: int, enabled: bool):
