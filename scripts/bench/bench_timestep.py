@@ -48,6 +48,7 @@ stability test, no chaos repeat, no half step: a few seconds.
 
     python scripts/bench/bench_timestep.py [--json out.json] [--quick]
         [--omegas 10 30 64] [--duration 20] [--steps 1e-5 2e-5 ...] [--no-half-step]
+        [--tire rest_speed=0.01 ...]
     python scripts/bench/bench_timestep.py --from-json out.json   # reprint the tables
 """
 
@@ -84,6 +85,14 @@ TRANSIENT_S = 3.0  # yaw rate: after the ramp and the start-up transient
 ONE_G = 9.81
 
 
+TIRE: dict[str, str] = {}  # tire attributes other than the model's (--tire KEY=VALUE)
+
+
+def model(dt: float) -> mujoco.MjModel:
+    """The extended robot on concrete at time step dt, with the --tire attributes."""
+    return skidsteer.load_model("extended", "concrete", timestep=dt, tire=TIRE or None)
+
+
 def log_factor(dt: float) -> int:
     """Decimation to the thesis's 1 kHz; 1 (no decimation) for steps longer than 1 ms."""
     return max(1, int(round(1 / (dt * LOG_RATE_HZ))))
@@ -92,7 +101,7 @@ def log_factor(dt: float) -> int:
 def free_responses(dt: float, axes: list[str]) -> dict:
     """experiments.free_response at time step dt (it has no timestep argument):
     settled once, released per axis from a copy of the settled state."""
-    m = skidsteer.load_model("extended", "concrete", timestep=dt)
+    m = model(dt)
     d = mujoco.MjData(m)
     settled = settle(m, d, SETTLE_S)
     factor = log_factor(dt)
@@ -113,7 +122,7 @@ def free_responses(dt: float, axes: list[str]) -> dict:
 
 
 def swivel(dt: float, omega: float, duration: float, yaw0: float = 0.0) -> dict:
-    m = skidsteer.load_model("extended", "concrete", timestep=dt)
+    m = model(dt)
     d = mujoco.MjData(m)
     if yaw0:
         d.qpos[3:7] = [math.cos(yaw0 / 2), 0, 0, math.sin(yaw0 / 2)]
@@ -213,7 +222,8 @@ def largest_passing(rows: list[dict], criteria) -> float | None:
 
 def measure(dt: float, args) -> dict:
     started = time.perf_counter()
-    row: dict = {"dt_s": dt, "unstable": None if args.quick else unstable_reason(dt)}
+    unstable = None if args.quick else unstable_reason(dt, TIRE or None)
+    row: dict = {"dt_s": dt, "unstable": unstable}
     row["free_response"] = free_responses(dt, args.axes)
     row["swivels"] = [swivel(dt, omega, args.duration) for omega in args.omegas]
     for sw in row["swivels"]:
@@ -308,7 +318,15 @@ def main() -> None:
     parser.add_argument("--from-json", help="only print the tables of a previous --json")
     parser.add_argument("--no-half-step", dest="half_step", action="store_false",
                         help="skip the free responses at half the finest step")
+    parser.add_argument("--tire", action="append", default=[], metavar="KEY=VALUE",
+                        help="a skidsteer.tire attribute for every run, e.g. rest_speed=0.01 "
+                             "(repeatable)")
     args = parser.parse_args()
+    for item in args.tire:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            parser.error(f"--tire {item!r}: expected KEY=VALUE, e.g. rest_speed=0.01")
+        TIRE[key] = value
     if args.from_json:
         with open(args.from_json) as fh:
             saved = json.load(fh)
@@ -320,6 +338,7 @@ def main() -> None:
     if args.quick:
         args.steps, args.omegas, args.duration, args.axes = QUICK_STEPS, [30.0], 4.0, ["roll"]
     print(f"machine: {machine()}")
+    print(f"tire attributes: {TIRE or 'the model defaults'}")
     load_before = loadavg()
     print(f"load average before: {load_before}", flush=True)
     started = time.perf_counter()
@@ -352,7 +371,7 @@ def main() -> None:
                      tolerances={"frequency_hz": FREQ_TOL_HZ, "amplitude_rel": AMP_TOL,
                                  "amplitude_floor_m_s2": AMPLITUDE_FLOOR,
                                  "band_rms_floor_m_s2": BAND_RMS_FLOOR, "yaw_rate_rel": YAW_TOL},
-                     wall_s=total, **summary, rows=rows, chaos_repeat=repeat,
+                     wall_s=total, tire_attributes=TIRE, **summary, rows=rows, chaos_repeat=repeat,
                      half_step_free_responses=half_step)
 
 
