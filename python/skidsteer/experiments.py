@@ -27,6 +27,11 @@ GRAVITY = 9.81
 FREE_RESPONSE_AXES = {"roll": 1, "pitch": 0, "yaw": 1}  # accelerometer axis the thesis read
 COMPRESSION_OFFSET_M = 0.001  # Sec. 6.2: z_init = -mg/(4 K_z) -/+ 0.001 m per side
 YAW_TWIST_RAD = 0.002  # assumed: "slightly turning the robot" (Sec. 5.2); linear regime
+# The free responses' envelope (decay rate) converges at 1e-5 s, not at the models'
+# 1e-4 s: standing wheels make eq. 4.12b's lateral factor a ratio of velocity jitters
+# (scripts/bench/bench_timestep.py; plugin/tire/README.md#time-step).  5e-6 s agrees
+# within 2 %; a 2 s free response at 1e-5 s costs a few seconds.
+FREE_RESPONSE_TIMESTEP_S = 1e-5
 
 
 def _rotate_about(d: mujoco.MjData, root_qpos: int, center: np.ndarray, axis: np.ndarray,
@@ -76,13 +81,16 @@ def release(m: mujoco.MjModel, d: mujoco.MjData, axis: str) -> None:
 
 def free_response(axis: str = "roll", *, config: str = "extended", surface: str = "concrete",
                   variant: str = "ours", tire: dict | None = None, settle_s: float = 2.0,
-                  include_signal: bool = False) -> dict:
-    """Release as Sec. 6.2, analyse as Sec. 5.2: peak frequency and decay rate."""
+                  include_signal: bool = False,
+                  timestep: float | None = FREE_RESPONSE_TIMESTEP_S) -> dict:
+    """Release as Sec. 6.2, analyse as Sec. 5.2: peak frequency and decay rate.  At the
+    converged FREE_RESPONSE_TIMESTEP_S unless timestep says otherwise (None: the
+    model's own)."""
     from skidsteer.analysis import FREE_RESPONSE_SAMPLES, free_response_features
 
     if axis not in FREE_RESPONSE_AXES:
         raise ValueError(f"unknown free-response axis {axis!r}: use roll, pitch or yaw")
-    m = load_model(config, surface, tire=tire, variant=variant)
+    m = load_model(config, surface, tire=tire, variant=variant, timestep=timestep)
     d = mujoco.MjData(m)
     settle(m, d, settle_s)
     release(m, d, axis)
@@ -95,7 +103,8 @@ def free_response(axis: str = "roll", *, config: str = "extended", surface: str 
     trace = accel[:FREE_RESPONSE_SAMPLES, FREE_RESPONSE_AXES[axis]]
     features = free_response_features(time_s, trace)
     result = {"axis": axis, "accelerometer_axis": "xyz"[FREE_RESPONSE_AXES[axis]],
-              "config": config, "surface": surface, "variant": variant, **features}
+              "config": config, "surface": surface, "variant": variant,
+              "timestep_s": m.opt.timestep, **features}
     if include_signal:
         result["time_s"] = time_s.tolist()
         result["signal_m_s2"] = trace.tolist()

@@ -544,7 +544,10 @@ def render(results: dict) -> str:
     md.append("Released as Sec. 6.2 (tires +-1 mm about equilibrium for roll/pitch; a 2 mrad "
               "twist of the tires for yaw), analysed as Sec. 5.2 (first 2^11 samples, 20 Hz "
               "low-pass). The thesis's FFT bin is 0.49 Hz, so we compare the refined peak; the "
-              "bin peak is listed too.\n\n")
+              "bin peak is listed too. Simulated at 1e-5 s "
+              "(experiments.FREE_RESPONSE_TIMESTEP_S): the decay of the thesis's law "
+              "converges only there (plugin/tire/README.md#time-step; at the models' "
+              "1e-4 s roll decays 2.19/s instead of 2.83/s).\n\n")
     rows = []
     for r in fr:
         m = TABLE_5_2[r["axis"]]
