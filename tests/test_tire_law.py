@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -70,21 +68,6 @@ def test_friction_factors_follow_eq_4_12():
     # (the 20-30 N floor of Sec. 3.3 is then carried by mu_y = v_y / Delta v_x)
     mu = friction_factors(P, loaded(slip_x=-0.04, slip_y=0.001, rolling=0.04))
     assert mu == (1.0, pytest.approx(0.025))
-
-
-def test_a_wheel_at_rest_has_full_friction_once_rest_speed_is_set():
-    # eq. 4.12b at rest is 0/0: with the thesis's law (rest_speed 0) a standing
-    # wheel's lateral friction follows the ratio of two jitters ...
-    jitter = loaded(slip_x=2e-4, slip_y=1e-5, rolling=2e-4)
-    assert friction_factors(P, jitter) == (1.0, pytest.approx(0.05))
-    # ... with rest_speed above every rim speed it has its full friction both ways
-    at_rest = dataclasses.replace(P, rest_speed=1e-3)
-    assert friction_factors(at_rest, jitter) == (1.0, 1.0)
-    # and a wheel that moves faster than rest_speed in any way follows eq. 4.12
-    assert friction_factors(at_rest, loaded(slip_x=-0.01, slip_y=0.002, rolling=0.5)) == \
-        friction_factors(P, loaded(slip_x=-0.01, slip_y=0.002, rolling=0.5))
-    assert friction_factors(at_rest, loaded(slip_x=2e-3, slip_y=1e-5, rolling=2e-4)) == \
-        (1.0, pytest.approx(0.005))
 
 
 def test_wheel_off_the_floor_carries_nothing_and_relaxes():

@@ -19,8 +19,6 @@ BAD_ATTRIBUTES = [
     ("lambda_max", "0", "must lie in (0, 1]"),
     ("lambda_max", "1.5", "must lie in (0, 1]"),
     ("contact_mass", "0", "must be a finite number > 0"),
-    ("rest_speed", "-0.01", "must be a finite number >= 0"),
-    ("rest_speed", "nan", "is not a number"),
     ("radius", "-0.1", "must be > 0"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler

@@ -26,8 +26,6 @@ typedef struct {
   mjtNum damping_x;        // D_x = series(tread, belt), N s/m (eq. 4.13, 4.14)
   mjtNum contact_mass;     // m_t, contact-point mass, kg (eq. 4.9)
   mjtNum lambda_max;       // slip at which friction saturates (eq. 4.12a)
-  mjtNum rest_speed;       // below it in every rim speed the wheel is at rest and the
-                           //   factors are 1 (eq. 4.12b is 0/0 there), m/s; 0: off
   int relay;               // 0: Coulomb contact point (eq. 4.9/4.13, kinetic friction kept);
                            // 1: eq. 6.4 as the thesis simulated it (relay, no kinetic friction)
 } tireParams;

@@ -22,15 +22,6 @@ void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum 
   mjtNum slip_x = fabs(k->slip_x);
   mjtNum slip_y = fabs(k->slip_y);
 
-  // A wheel at rest on the floor (every rim speed below rest_speed; off at 0, the
-  // thesis's law) has its full friction both ways.  Eq. 4.12b's |v_y| / |Delta v_x|
-  // is 0/0 there: its value, and with it the friction limit, would be set by the
-  // velocities' numerical jitter, and so by the time step (plugin README).
-  if (fmax(rolling, fmax(slip_x, slip_y)) < p->rest_speed) {
-    mu[TIRE_DIR_X] = mu[TIRE_DIR_Y] = 1;
-    return;
-  }
-
   // |lambda| of eq. 2.7, saturated at 1 as in Sec. 2.1.1; a wheel that does not
   // turn slides with |lambda| = 1 (the thesis's NaN/inf converter, Sec. 6.1).
   mjtNum lambda = rolling > 0 ? fmin(1, slip_x / rolling) : 1;

@@ -34,7 +34,6 @@ static const char* const kAttributes[] = {
   "tread_damping_x",
   "contact_mass",
   "lambda_max",
-  "rest_speed",
   "contact_point",
   "radius",
 };
@@ -157,7 +156,6 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
       read_number(m, instance, "tread_damping_x", INFINITY, &tread_damping) ||
       read_number(m, instance, "contact_mass", 0.035, &p->contact_mass) ||
       read_number(m, instance, "lambda_max", 0.1, &p->lambda_max) ||
-      read_number(m, instance, "rest_speed", 0, &p->rest_speed) ||
       read_number(m, instance, "radius", 0, radius)) {
     return -1;
   }
@@ -190,8 +188,6 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
               p->contact_mass, positive) ||
       require(isfinite(p->lambda_max) && p->lambda_max > 0 && p->lambda_max <= 1, m, instance,
               "lambda_max", p->lambda_max, "must lie in (0, 1]") ||
-      require(isfinite(p->rest_speed) && p->rest_speed >= 0, m, instance, "rest_speed",
-              p->rest_speed, nonnegative) ||
       require(isfinite(*radius) && *radius >= 0, m, instance, "radius", *radius,
               "must be > 0, or unset to take each wheel's radius from its geom")) {
     return -1;

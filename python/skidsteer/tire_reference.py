@@ -57,9 +57,6 @@ class TireParams:
     tread_damping_x: float = math.inf  # D_tx >> D_belt, eq. 4.14
     contact_mass: float = 0.035  # m_t, kg, Sec. 6.2
     lambda_max: float = 0.1  # assumed, Sec. 6.2 suggests 1e-1 to 1e-2
-    # m/s: a wheel whose rim speeds are all below it is at rest, full friction both
-    # ways (eq. 4.12b is 0/0 there); 0: off, the thesis's law
-    rest_speed: float = 0.0
     # "coulomb": contact point with kinetic friction (eq. 4.9/4.13); "relay": eq. 6.4
     # as the thesis's Simulink model has it (relay flag, no kinetic-friction term)
     contact_point: str = "coulomb"
@@ -105,8 +102,6 @@ def normal_force(p: TireParams, k: Kinematics) -> float:
 def friction_factors(p: TireParams, k: Kinematics) -> tuple[float, float]:
     """(mu_x, mu_y) in [0, 1]: eq. 4.12a/b, saturated."""
     rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
-    if max(rolling, slip_x, slip_y) < p.rest_speed:
-        return 1.0, 1.0  # at rest: static friction holds either way
     lam = min(1.0, slip_x / rolling) if rolling > 0 else 1.0
     if lam < p.lambda_max:
         return lam / p.lambda_max, min(1.0, slip_y / (rolling * p.lambda_max))

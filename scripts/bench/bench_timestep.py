@@ -48,7 +48,7 @@ stability test, no chaos repeat, no half step: a few seconds.
 
     python scripts/bench/bench_timestep.py [--json out.json] [--quick]
         [--omegas 10 30 64] [--duration 20] [--steps 1e-5 2e-5 ...] [--no-half-step]
-        [--tire rest_speed=0.01 ...]
+        [--tire lambda_max=0.05 ...]
     python scripts/bench/bench_timestep.py --from-json out.json   # reprint the tables
 """
 
@@ -319,13 +319,13 @@ def main() -> None:
     parser.add_argument("--no-half-step", dest="half_step", action="store_false",
                         help="skip the free responses at half the finest step")
     parser.add_argument("--tire", action="append", default=[], metavar="KEY=VALUE",
-                        help="a skidsteer.tire attribute for every run, e.g. rest_speed=0.01 "
+                        help="a skidsteer.tire attribute for every run, e.g. lambda_max=0.05 "
                              "(repeatable)")
     args = parser.parse_args()
     for item in args.tire:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            parser.error(f"--tire {item!r}: expected KEY=VALUE, e.g. rest_speed=0.01")
+            parser.error(f"--tire {item!r}: expected KEY=VALUE, e.g. lambda_max=0.05")
         TIRE[key] = value
     if args.from_json:
         with open(args.from_json) as fh:
