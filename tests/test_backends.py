@@ -77,6 +77,8 @@ def ray_backend():
                    "'skidsteer[ray]' (ray is not installed)")
         if RAY_REQUIRED:
             pytest.fail(message + "; SKIDSTEER_REQUIRE_RAY_TESTS=1")
+        # issue 6 asks for exactly this: without the optional extra the Ray tests
+        # skip and say why; CI installs the extra and fails here instead (above)
         pytest.skip(message)
     # 2 CPUs as this machine has; a small object store (a model pickles to ~5 MB)
     backend = make_backend("ray", num_cpus=2, object_store_memory=200 * 2**20)

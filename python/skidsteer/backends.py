@@ -94,7 +94,7 @@ class RayBackend:
         """fn(*a) for a in args as Ray tasks, all submitted at once; results in order."""
         remote = self._remote.get(fn)
         if remote is None:
-            remote = self._remote[fn] = self._ray.remote(num_cpus=1, max_retries=2)(fn)
+            remote = self._remote[fn] = self._ray.remote(num_cpus=1)(fn)
         refs = [remote.remote(*a) for a in args]
         failures = self._ray.exceptions
         try:

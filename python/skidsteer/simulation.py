@@ -188,16 +188,11 @@ def _run_from_rollout(m: mujoco.MjModel, states: np.ndarray, sensors: np.ndarray
 
 def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_s: float,
                   settle_s: float = 2.0, d: mujoco.MjData | None = None) -> Run:
-    """Settles the robot, then drives it open loop at (v_x*, omega_z*) for duration_s,
-    the command ramped in at the firmware's acceleration limits (DriveGeometry.ramp)."""
+    """Settles the robot (from d's state when given), then drives it open loop at
+    (v_x*, omega_z*) for duration_s, the command ramped in at the firmware's
+    acceleration limits (DriveGeometry.ramp)."""
     d = d if d is not None else mujoco.MjData(m)
-    settle(m, d, settle_s)
-    drive = DriveGeometry.from_model(m)
-    t0 = d.time
-    nstep = int(round(duration_s / m.opt.timestep))
-    ctrl = drive.ramp(m, v_mps, omega_deg_s, nstep)
-    states, sensors = rollout(m, d, ctrl, nstep)
-    return _run_from_rollout(m, states, sensors, ctrl[-1], t0)
+    return run_from_settled(m, settle(m, d, settle_s), v_mps, omega_deg_s, duration_s)
 
 
 TRIAL_DEFLECTION_M = 1e-4  # assumed: 0.1 mm of tire deflection left over from placing the robot
