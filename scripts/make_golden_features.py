@@ -74,6 +74,7 @@ import scipy
 
 from skidsteer import signals
 from skidsteer.analysis import AXES, swivel_features
+from skidsteer.datafiles import write_atomically
 from skidsteer.experiments import swivel_model
 from skidsteer.report import VIBRATION_FLOOR_M_S2
 from skidsteer.simulation import LOG_RATE_HZ, TRIAL_DEFLECTION_M, run_batch
@@ -443,8 +444,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     data["provenance"]["elapsed_s"] = round(time.perf_counter() - start, 1)
     text = json.dumps(data, indent=2, allow_nan=False) + "\n"
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
+    write_atomically(args.out, lambda tmp: tmp.write_text(text))
     log(f"wrote {args.out} ({len(cases)} cases x {len(seeds)} runs, "
         f"{data['provenance']['elapsed_s']} s)")
     return 0

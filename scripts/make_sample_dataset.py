@@ -16,6 +16,7 @@ import shutil
 from pathlib import Path
 
 import skidsteer  # noqa: F401  (registers the plugin)
+from skidsteer.datafiles import write_atomically
 from skidsteer.synth import make_dataset
 
 RECIPE = {
@@ -36,12 +37,17 @@ def main() -> None:
     root = Path(__file__).resolve().parents[1]
     parser.add_argument("--out", type=Path, default=root / "data" / "sample")
     args = parser.parse_args()
+    # built beside the old one and swapped in only when complete: an interrupted
+    # run leaves the previous sample (and a .partial directory) behind
+    partial = args.out.with_name(args.out.name + ".partial")
+    shutil.rmtree(partial, ignore_errors=True)
+    truth = make_dataset(partial, **RECIPE)
+    path = args.out.with_name(args.out.name + ".truth.json")
+    text = json.dumps({**truth, "recipe": {k: v for k, v in RECIPE.items()}}, indent=2) + "\n"
     if args.out.exists():
         shutil.rmtree(args.out)
-    truth = make_dataset(args.out, **RECIPE)
-    path = args.out.with_name(args.out.name + ".truth.json")
-    path.write_text(json.dumps({**truth, "recipe": {k: v for k, v in RECIPE.items()}},
-                               indent=2) + "\n")
+    partial.rename(args.out)
+    write_atomically(path, lambda tmp: tmp.write_text(text))
     print(f"wrote {args.out} ({len(list(args.out.iterdir()))} files) and {path}")
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -33,6 +34,7 @@ from scipy import signal
 
 import skidsteer
 from skidsteer import signals
+from skidsteer.datafiles import write_atomically
 from skidsteer.simulation import rollout, run_commanded, sensor_slice, settle
 
 STEPS = [2e-3, 1.5e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5]
@@ -139,9 +141,9 @@ def main() -> None:
         rows[dt] = row
         print(f"dt={dt:g}: {row}", flush=True)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"rows": {str(k): v for k, v in rows.items()}, "repeats": repeats}, fh,
-                      indent=2)
+        text = json.dumps({"rows": {str(k): v for k, v in rows.items()}, "repeats": repeats},
+                          indent=2)
+        write_atomically(Path(args.json), lambda tmp: tmp.write_text(text))
     print_table(rows)
 
 

@@ -12,6 +12,7 @@ import json
 import re
 from pathlib import Path
 
+from skidsteer.datafiles import write_atomically
 from skidsteer.report import _table, summary_rows
 
 REPO = Path(__file__).resolve().parents[1]
@@ -36,7 +37,8 @@ def write_between_markers(readme: Path, start: str, end: str, body: str) -> None
     pattern = re.compile(re.escape(start) + r"(.*?" + re.escape(end) + r")?", re.S)
     if not pattern.search(text):
         raise SystemExit(f"{readme}: no {start} marker")
-    readme.write_text(pattern.sub(lambda _: f"{start}\n{body}{end}", text, count=1))
+    new = pattern.sub(lambda _: f"{start}\n{body}{end}", text, count=1)
+    write_atomically(readme, lambda tmp: tmp.write_text(new))
 
 
 if __name__ == "__main__":

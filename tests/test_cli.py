@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
 from skidsteer.cli import main
+from skidsteer.measured import DataError, read_dataset
 
 
 def test_swivel_writes_accelerometer_log_in_measured_data_layout(tmp_path, capsys):
@@ -78,3 +83,36 @@ def test_sweep_then_analyze_a_simulated_dataset(tmp_path, capsys):
                  "--surface", "carpet", "--duration", "3", "--format", "xlsx",
                  "--quiet"]) == 0
     assert mtimes == {p.name: p.stat().st_mtime_ns for p in data.glob("*.xlsx")}
+
+
+def test_a_killed_sweep_looks_unfinished_and_its_rerun_equals_an_uninterrupted_one(tmp_path):
+    # issue 7: kill a sweep midway (SIGKILL: no cleanup runs), rerun the same
+    # command, and get the files an uninterrupted sweep writes, byte for byte
+    args = ["sweep", "--omega", "10", "--omega", "20", "--omega", "30", "--omega", "40",
+            "--surface", "concrete", "--surface", "carpet", "--duration", "4",
+            "--threads", "1", "--quiet"]
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    assert main(args + ["--out", str(whole)]) == 0
+    expected = {p.name: p.read_bytes() for p in whole.iterdir()}
+    assert len(expected) == 9  # 8 runs and runs.csv, no marker, no temporaries
+
+    process = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from skidsteer.cli import main; "
+         "sys.exit(main(sys.argv[1:]))", *args, "--out", str(killed)])
+    deadline = time.monotonic() + 120
+    while not list(killed.glob("v0-*.csv")) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    runs = list(killed.glob("v0-*.csv"))
+    # killed after its first run file and before its last (8 runs of 4 s on one
+    # thread take several seconds; the poll is 10 ms)
+    assert 1 <= len(runs) < 8, len(runs)
+    assert not (killed / "runs.csv").exists()
+    with pytest.raises(DataError, match="unfinished"):
+        read_dataset(killed)
+    for run in runs:  # what is there is whole
+        assert run.read_bytes() == expected[run.name]
+
+    assert main(args + ["--out", str(killed)]) == 0
+    assert {p.name: p.read_bytes() for p in killed.iterdir()} == expected

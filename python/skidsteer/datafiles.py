@@ -20,11 +20,17 @@ def _read_umask() -> int:
 _UMASK = _read_umask()  # once, at import: os.umask is process-wide
 
 
-def write_atomically(path: Path, write) -> Path:
-    """Calls write(tmp_path), then renames tmp_path to path: never a half file."""
+def write_atomically(path: Path, write, keep_suffix: bool = False) -> Path:
+    """Calls write(tmp_path), then renames tmp_path to path: never a half file.
+
+    keep_suffix: the temporary name ends in path's suffix (for writers that pick
+    the format from it, like ffmpeg); otherwise in .part.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.",
+                               suffix=f".part{path.suffix}" if keep_suffix else ".part",
+                               dir=path.parent)
     os.close(fd)
     try:
         write(Path(tmp))

@@ -33,6 +33,12 @@ SENSOR_RANGE_M_S2 = 1.7 * 9.8  # SCA620: +-1.7 g
 SATURATION_FRACTION = 0.999  # |a| at or above this fraction of the range is saturated
 MIN_SAMPLES = 2**11  # the shortest analysis window of the thesis (Sec. 5.2)
 TIME_STEP_RTOL = 1e-3  # relative to the median step
+# Gravity is in every recording (the spec: "as an accelerometer reads them"), and
+# a robot on its floor reads a mean specific force of 1 g: the swivel's
+# centripetal and vibration terms are below 0.1 g (Sec. 3.2).  A mean outside
+# 0.5-1.5 g is a file in other units: g (1/9.8 of it) or mm/s^2 (1000x).
+GRAVITY_M_S2 = 9.8
+GRAVITY_BAND = (0.5, 1.5)
 HEADER_ROWS = 10  # LabVIEW export header; data from row 11
 SHEET_AXES = ("z", "y", "x")  # sheet order in the LabVIEW export (parseData reads sheet 4-i)
 CSV_COLUMNS = tuple(CSV_HEADER.split(","))
@@ -269,6 +275,18 @@ def _check_samples(path: Path, time_s: np.ndarray, accel: np.ndarray, where) -> 
             raise DataError(f"{path}: non-uniform time base at {where(i, None)}: step "
                             f"{step[i - 1]:.6g} s, median step {median:.6g} s "
                             f"(tolerance {TIME_STEP_RTOL:g} relative)")
+    # units before saturation: a file in other units saturates everywhere
+    mean = float(np.linalg.norm(accel.mean(axis=0)))
+    low, high = (GRAVITY_M_S2 * f for f in GRAVITY_BAND)
+    if not low <= mean <= high:
+        csv_file = path.suffix.lower() == ".csv"
+        place = "columns ax, ay, az" if csv_file else "column B of the three sheets"
+        hint = ("The accelerations must be in m/s^2 with gravity in (g would read 1, "
+                "mm/s^2 9800)" if csv_file else
+                "Column B must hold the SCA620's output in volts (2.6 V at 0 g)")
+        raise DataError(f"{path}: {place}: the mean acceleration is {mean:.4g} "
+                        f"m/s^2, but gravity alone reads {GRAVITY_M_S2} m/s^2 (accepted "
+                        f"{low:.1f}-{high:.1f}): wrong units?  {hint}")
     limit = SATURATION_FRACTION * SENSOR_RANGE_M_S2
     hits = []
     for k, axis in enumerate("xyz"):
@@ -378,11 +396,20 @@ def parse_thesis_name(name: str) -> dict:
     return fields
 
 
+# A file that a writer of datasets (skidsteer.sweep) keeps in the directory while
+# it is unfinished: read_dataset refuses such a directory, so that an interrupted
+# sweep never passes for a complete dataset.
+INCOMPLETE_MARKER = ".skidsteer-incomplete"
+
+
 def read_dataset(root, *, load=True) -> Dataset:
     """The runs of a dataset directory; with load=False the recordings are None (not read)."""
     root = Path(root)
     if not root.is_dir():
         raise DataError(f"{root}: not a directory")
+    if (root / INCOMPLETE_MARKER).is_file():
+        raise DataError(f"{root}: an unfinished dataset ({INCOMPLETE_MARKER}: "
+                        f"{(root / INCOMPLETE_MARKER).read_text().strip()})")
     files = sorted(p.relative_to(root).as_posix() for p in root.rglob("*")
                    if p.is_file() and p.suffix.lower() in (".csv", ".xlsx")
                    and p.relative_to(root).as_posix() != "runs.csv"

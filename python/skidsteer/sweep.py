@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Iterable
 
 
-from skidsteer.measured import RunInfo, write_run, write_runs_csv
+from skidsteer.datafiles import write_atomically
+from skidsteer.measured import INCOMPLETE_MARKER, RunInfo, write_run, write_runs_csv
 
 THESIS_OMEGAS_DEG_S = tuple(range(2, 65, 2))  # Sec. 3.2: 2 to 64 deg/s in steps of 2
 
@@ -85,6 +86,16 @@ def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     todo = [r for r in runs if not (out_dir / r.info.file).is_file()]
+    marker = out_dir / INCOMPLETE_MARKER
+    for stale in out_dir.glob(".*.part*"):  # temporaries of a killed write_atomically
+        stale.unlink()
+    if todo:
+        # until runs.csv is written the directory is not a dataset (read_dataset
+        # refuses it), so that a killed sweep never looks complete
+        (out_dir / "runs.csv").unlink(missing_ok=True)
+        write_atomically(marker, lambda tmp: tmp.write_text(
+            f"an unfinished skidsteer sweep: {len(todo)} of {len(runs)} runs to simulate; "
+            "rerun the same sweep to finish it\n"))
     groups: dict[tuple, list[PlannedRun]] = {}
     for r in todo:
         key = (r.info.config, r.info.surface, r.info.mount, r.variant, r.duration_s)
@@ -105,6 +116,7 @@ def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
         bar.close()
     infos = [r.info for r in runs]
     write_runs_csv(out_dir, infos)
+    marker.unlink(missing_ok=True)
     return infos
 
 

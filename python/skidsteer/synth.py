@@ -21,6 +21,7 @@ import numpy as np
 
 from skidsteer import causes
 from skidsteer.comparison import Setup, model_factory
+from skidsteer.datafiles import write_atomically
 from skidsteer.measured import RunInfo, write_run, write_run_xlsx, write_runs_csv
 from skidsteer.sensor_chain import SensorChain
 from skidsteer.simulation import run_batch
@@ -116,5 +117,6 @@ def make_dataset(out_dir, effect: str | None = None, params: Mapping[str, float]
              "main_parameter": (causes.get(effect).main.name
                                 if effect in causes.CAUSES else None)}
     if truth_path is not None:
-        Path(truth_path).write_text(json.dumps(truth, indent=2) + "\n")
+        text = json.dumps(truth, indent=2) + "\n"
+        write_atomically(Path(truth_path), lambda tmp: tmp.write_text(text))
     return truth

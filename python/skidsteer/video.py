@@ -23,6 +23,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from skidsteer import tasks  # noqa: E402
+from skidsteer.datafiles import write_atomically  # noqa: E402
 from skidsteer.tasks.pioneer3at import feedforward_action  # noqa: E402
 
 CAMERA = "track"
@@ -86,8 +87,10 @@ def render_episode(env, policy: Callable, seconds: float, out: str | Path,
     out.parent.mkdir(parents=True, exist_ok=True)
     still = out.with_suffix(".png")
     mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
-    mediapy.write_video(out, np.stack(frames), fps=fps)
-    mediapy.write_image(still, frames[-1])
+    write_atomically(out, lambda tmp: mediapy.write_video(tmp, np.stack(frames), fps=fps),
+                     keep_suffix=True)
+    write_atomically(still, lambda tmp: mediapy.write_image(tmp, frames[-1]),
+                     keep_suffix=True)
     return {"video": out, "still": still, "frames": nframes, "width": width,
             "height": height, "fps": fps}
 
