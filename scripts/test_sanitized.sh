@@ -30,9 +30,11 @@ CC_BIN="$(command -v cc || command -v gcc)"
 PRELOAD="$("$CC_BIN" -print-file-name=libasan.so):$("$CC_BIN" -print-file-name=libubsan.so)"
 # The plugin tests: the C law against its Python reference, the plugin's
 # contract (reset, copy, state, threads, 60 s of random commands per floor) and
-# the property tests at their CI budget.
+# the property tests at their CI budget, except the energy property: it spends
+# its 30 s in Python (the tire energy every step), not in the plugin.
 TESTS=(tests/test_tire_reference.py tests/test_plugin_contract.py
-       tests/test_plugin_properties.py tests/test_tire_law.py)
+       tests/test_plugin_properties.py tests/test_tire_law.py
+       -k "not energy_never_grows")
 SKIDSTEER_PLUGIN_LIBRARY="$PWD/$LIBRARY" \
 LD_PRELOAD="$PRELOAD" \
 ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:verify_asan_link_order=0" \
