@@ -10,7 +10,7 @@
 # LeakSanitizer reports); any ASan or UBSan report aborts the test run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-VENV="${SKIDSTEER_VENV:-.venv}"
+VENV="$(cd "${SKIDSTEER_VENV:-.venv}" && pwd)"  # absolute: cmake runs it from the build tree
 PY="$VENV/bin/python"
 BUILD="${SKIDSTEER_SANITIZE_BUILD:-build-sanitize}"
 
