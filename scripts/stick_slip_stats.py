@@ -25,20 +25,11 @@ import argparse
 
 import mujoco
 import numpy as np
-from scipy import signal
-
 import skidsteer
+from skidsteer import signals
 from skidsteer import tire_reference as tr
+from skidsteer.models import load_spec
 from skidsteer.simulation import DriveGeometry, rollout, sensor_slice, settle
-
-LINE_BAND_HZ = (20.0, 50.0)  # Sec. 3.2's high-frequency band
-
-
-def tire_params(variant: str) -> tr.TireParams:
-    # the variants' tire attributes (models.load_spec): only the contact point differs
-    return tr.TireParams.from_config(
-        {"floor": "concrete", **({"contact_point": "relay"} if variant == "thesis" else {})})
-
 
 def lateral_effective_mass(m: mujoco.MjModel, d: mujoco.MjData, ref: tr.TireReference) -> list:
     """Per wheel (normal force N, 1 / (J M^-1 J^T) of its lateral contact direction, kg)."""
@@ -58,7 +49,8 @@ def lateral_effective_mass(m: mujoco.MjModel, d: mujoco.MjData, ref: tr.TireRefe
 def measure(dt: float, omega_deg_s: float, variant: str, seconds: float) -> dict:
     m = skidsteer.load_model("extended", "concrete", timestep=dt, variant=variant)
     d = mujoco.MjData(m)
-    ref = tr.TireReference(m, tire_params(variant))
+    config = load_spec("extended", "concrete", variant=variant).plugins[0].config
+    ref = tr.TireReference(m, tr.TireParams.from_config(dict(config)))
     settle(m, d, 2.0)
     loads = lateral_effective_mass(m, d, ref)
     n = int(round(4.0 / dt))
@@ -82,14 +74,14 @@ def measure(dt: float, omega_deg_s: float, variant: str, seconds: float) -> dict
         stuck[i] = d.plugin_state[adr:adr + 6 * nwheel].reshape(nwheel, 2, 3)[:, :, 2]
         ay[i] = d.sensordata[acc][1]
     speeds = np.array(speeds).mean(axis=0)
-    f, psd = signal.welch(ay - ay.mean(), fs=1 / dt, nperseg=int(round(1.0 / dt)))
-    band = (f >= LINE_BAND_HZ[0]) & (f <= LINE_BAND_HZ[1])
+    # 1 s Welch segments (1 Hz bins, 3 averaged): the line moves by Hz between steps
+    f, psd = signals.welch_spectrum(ay - ay.mean(), 1 / dt, nperseg=int(round(1.0 / dt)))
     mu_s = ref.params.mu_static
     return {
         "stuck": stuck.mean(axis=0), "switches_per_s": np.abs(np.diff(stuck, axis=0)).sum(0) / seconds,
         "factors": np.array(factors).mean(axis=0), "speeds": speeds,
-        "line_hz": float(f[band][np.argmax(psd[band])]),
-        "line_rms": float(np.sqrt(psd[band].sum() * (f[1] - f[0]))),
+        "line_hz": float(signals.band_peak_hz(f, psd, signals.HIGH_BAND_HZ)),
+        "line_rms": float(np.sqrt(signals.band_power(f, psd, signals.HIGH_BAND_HZ))),
         # c h / m_eff = mu_s N h / (r |omega| lambda_max m_eff), rolling speed measured
         "c_h_over_m": [mu_s * load * dt / (speeds[w, 2] * ref.params.lambda_max * mass)
                        for w, (load, mass) in enumerate(loads)],

@@ -28,6 +28,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from skidsteer import FLOORS
 from skidsteer import tire_reference as tr
 from skidsteer.models import load_spec
+from skidsteer.simulation import rollout
 from test_tire_reference import random_config, with_heightfield
 
 # Command sequences per run of the suite: 60 (~40 s here) in CI; the long run
@@ -112,18 +113,6 @@ def place(m: mujoco.MjModel, d: mujoco.MjData, pose) -> None:
     mujoco.mj_forward(m, d)
 
 
-def rollout(m: mujoco.MjModel, d: mujoco.MjData, ctrl: np.ndarray):
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    states = np.empty((len(ctrl), mujoco.mj_stateSize(m, spec)))
-    sensors = np.empty((len(ctrl), m.nsensordata))
-    for i, c in enumerate(ctrl):
-        d.ctrl[:] = c
-        mujoco.mj_step(m, d)
-        mujoco.mj_getState(m, d, states[i], spec)
-        sensors[i] = d.sensordata
-    return states, sensors
-
-
 @PROPERTIES
 @given(data=st.data())
 def test_random_command_sequences_stay_finite_warning_free_and_replay_bit_for_bit(data):
@@ -132,12 +121,12 @@ def test_random_command_sequences_stay_finite_warning_free_and_replay_bit_for_bi
     ctrl = data.draw(commands(m, RUN_S[integrator]))
     d = mujoco.MjData(m)
     place(m, d, pose)
-    states, sensors = rollout(m, d, ctrl)
+    states, sensors = rollout(m, d, ctrl, len(ctrl))
     warnings = {mujoco.mjtWarning(i).name: w.number for i, w in enumerate(d.warning) if w.number}
     assert not warnings, (warnings, config, pose)
     assert np.isfinite(states).all() and np.isfinite(sensors).all(), (config, pose)
     place(m, d, pose)
-    again, sensors_again = rollout(m, d, ctrl)
+    again, sensors_again = rollout(m, d, ctrl, len(ctrl))
     assert np.array_equal(states, again) and np.array_equal(sensors, sensors_again)
 
 
@@ -208,13 +197,14 @@ def test_the_thesis_relay_is_not_passive():
 def energy_rise(config, rng, drop_m, tilt_deg, speed) -> float:
     """The largest rise of the total energy (J) over any window of a 0.4 s run with
     zero commands, from a pose dropped drop_m and tilted tilt_deg, moving at speed."""
-    m = load_spec("extended", "concrete", tire=config).compile()
+    spec = load_spec("extended", "concrete", tire=config)
+    m = spec.compile()
     m.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT  # the tires only (above)
     d = mujoco.MjData(m)
     place(m, d, (0.23 + drop_m, tilt_deg, rng.uniform(0, 2 * math.pi), 0.0))
     d.qvel[:6] = speed * rng.normal(size=6) / math.sqrt(6)  # up to ~1 m/s and 1 rad/s
-    ref = tr.TireReference(m, tr.TireParams.from_config(config or {"floor": "concrete"}))
+    ref = tr.TireReference(m, tr.TireParams.from_config(dict(spec.plugins[0].config)))
     energy = np.empty(int(round(0.4 / m.opt.timestep)))
     for i in range(len(energy)):
         mujoco.mj_forward(m, d)

@@ -29,7 +29,8 @@ import numpy as np
 from skidsteer.datafiles import CSV_HEADER, write_accelerometer_csv, write_atomically
 from skidsteer.models import BUILDS, FLOORS
 
-SENSOR_RANGE_M_S2 = 1.7 * 9.8  # SCA620: +-1.7 g
+GRAVITY_M_S2 = 9.8  # the thesis's g (Appendix A's volts formula)
+SENSOR_RANGE_M_S2 = 1.7 * GRAVITY_M_S2  # SCA620: +-1.7 g
 SATURATION_FRACTION = 0.999  # |a| at or above this fraction of the range is saturated
 MIN_SAMPLES = 2**11  # the shortest analysis window of the thesis (Sec. 5.2)
 TIME_STEP_RTOL = 1e-3  # relative to the median step
@@ -37,7 +38,6 @@ TIME_STEP_RTOL = 1e-3  # relative to the median step
 # a robot on its floor reads a mean specific force of 1 g: the swivel's
 # centripetal and vibration terms are below 0.1 g (Sec. 3.2).  A mean outside
 # 0.5-1.5 g is a file in other units: g (1/9.8 of it) or mm/s^2 (1000x).
-GRAVITY_M_S2 = 9.8
 GRAVITY_BAND = (0.5, 1.5)
 HEADER_ROWS = 10  # LabVIEW export header; data from row 11
 SHEET_AXES = ("z", "y", "x")  # sheet order in the LabVIEW export (parseData reads sheet 4-i)

@@ -89,8 +89,7 @@ def render_episode(env, policy: Callable, seconds: float, out: str | Path,
     mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
     write_atomically(out, lambda tmp: mediapy.write_video(tmp, np.stack(frames), fps=fps),
                      keep_suffix=True)
-    write_atomically(still, lambda tmp: mediapy.write_image(tmp, frames[-1]),
-                     keep_suffix=True)
+    write_atomically(still, lambda tmp: mediapy.write_image(tmp, frames[-1]))
     return {"video": out, "still": still, "frames": nframes, "width": width,
             "height": height, "fps": fps}
 

@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from skidsteer import measured as m  # noqa: E402
 from skidsteer.measured import RunInfo  # noqa: E402
-from test_measured import BAD_RUNS, signal, write_csv  # noqa: E402
+from test_measured import BAD_RUNS, signal, write_csv, write_xlsx  # noqa: E402
 
 # BAD_RUNS cases (tests/test_measured.py) -> the file name they get in the corpus
 FROM_TEST_MEASURED = {
@@ -84,20 +84,10 @@ def in_mm_per_s2(path: Path) -> Path:
 
 
 def xlsx_in_m_s2(path: Path) -> Path:
-    """The LabVIEW layout with m/s^2 where the volts belong (z reads 9.8 'V')."""
-    import openpyxl
-
+    """The LabVIEW layout with m/s^2 where the volts belong (z reads 9.8 'V'):
+    write_xlsx converts to volts, so hand it what converts back to a itself."""
     t, a = signal()
-    book = openpyxl.Workbook()
-    book.remove(book.active)
-    for k, name in enumerate("zyx"):
-        sheet = book.create_sheet(name)
-        for r in range(m.HEADER_ROWS):
-            sheet.append([f"header {r + 1}", "text"])
-        for time_s, value in zip(t.tolist(), a[:, 2 - k].tolist()):
-            sheet.append([time_s, value])
-    book.save(path)
-    return path
+    return write_xlsx(path, t, m.volts_to_m_s2(a))
 
 
 # new cases: file name -> (builder, fragments its message must contain)
