@@ -3,7 +3,8 @@
 The hidden-effect tests build a "measured" dataset from a truth model (our model
 plus one effect, seeded) through the sensor chain into LabVIEW xlsx files, and
 require diagnose to find what was hidden.  They are the slow part of the suite
-(~1.5 min per effect on 2 cores); the records are 8 s, the shortest the band
+(0.5-2.3 min per effect on 2 cores, sharing one simulation cache; wheel
+eccentricity's 20 s records 5.7 min); the records are 8 s, the shortest the band
 features allow (3 s start-up window, 4 s onwards steady window with 4096-sample
 Welch segments), except for wheel eccentricity, whose once-per-revolution line
 needs 20 s (RECORD_S).
@@ -12,6 +13,10 @@ needs 20 s (RECORD_S).
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import mujoco
 import numpy as np
@@ -253,8 +258,12 @@ RECORD_S = {"wheel_eccentricity": 20.0}
 
 @pytest.fixture(scope="module")
 def hidden(tmp_path_factory):
-    """effect -> (truth, diagnosis), each computed once."""
+    """effect -> (truth, diagnosis), each computed once.  The diagnoses share one
+    simulation cache: the candidates' grids are the same models whatever the data,
+    and a stored simulation gives the numbers a new one would (the kill-and-resume
+    test checks that a resumed diagnosis equals an uninterrupted one)."""
     cache = {}
+    shared = tmp_path_factory.mktemp("simulations")
 
     def run(effect, out=False):
         if effect not in cache:
@@ -262,7 +271,7 @@ def hidden(tmp_path_factory):
             truth = make_dataset(root / "data", effect, seed=SEED,
                                  duration_s=RECORD_S.get(effect, DURATION_S))
             result = diagnosis.diagnose(root / "data", root / "out" if out else None,
-                                        progress=False, figures=out)
+                                        progress=False, figures=out, cache_dir=shared)
             cache[effect] = (truth, result, root)
         return cache[effect]
 
@@ -303,14 +312,23 @@ def test_an_effect_outside_the_candidates_is_unexplained(hidden, effect):
     assert result["cause"] is None
 
 
-def test_diagnose_writes_its_outputs(tmp_path):
-    data = tmp_path / "data"
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    """(dataset, out dir, result) of one uninterrupted diagnose with outputs: a hidden
+    slip parameter, one candidate, a broken run file in the dataset."""
+    root = tmp_path_factory.mktemp("written")
+    data = root / "data"
     make_dataset(data, "slip_lambda_max", seed=SEED, duration_s=DURATION_S, file_format="csv")
     (data / "broken.csv").write_text("time_s,ax,ay,az\n0,1,2\n")
     with open(data / "runs.csv", "a") as f:
         f.write("broken.csv,0,30,concrete,extended,platform,4\n")
-    out = tmp_path / "out"
+    out = root / "out"
     result = diagnosis.diagnose(data, out, progress=False, candidates=["slip_lambda_max"])
+    return data, out, result
+
+
+def test_diagnose_writes_its_outputs(written):
+    data, out, result = written
     saved = json.loads((out / "diagnosis.json").read_text())
     for key in ("verdict", "cause", "parameters", "intervals", "ranking", "gain",
                 "discrepancies", "skipped_runs"):
@@ -329,3 +347,54 @@ def test_diagnose_writes_its_outputs(tmp_path):
     config = dict(spec.plugins[0].config)
     assert float(config["lambda_max"]) == pytest.approx(saved["parameters"]["lambda_max"])
     assert m.nu == 2
+
+
+def _comparable(diagnosis_json: dict) -> dict:
+    """diagnosis.json without what differs between two runs of one diagnosis: its wall
+    time and how many simulations it ran or found stored."""
+    return {k: v for k, v in diagnosis_json.items() if k not in ("wall_time_s", "simulations")}
+
+
+def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_result(
+        written, tmp_path):
+    # issue 7: SIGKILL a diagnose midway (no cleanup runs); its directory must not
+    # look finished, and the same command rerun must reuse what was simulated and
+    # write what the uninterrupted diagnose wrote
+    from skidsteer.cli import main
+    from skidsteer.simulation_cache import CACHE_DIR
+    from skidsteer.measured import INCOMPLETE_MARKER
+
+    data, whole, whole_result = written
+    # base model and 9 fit points (5 grid, 4 Brent), 3 commands each
+    assert whole_result["simulations"] == {"simulated": 30, "reused": 0,
+                                           "cache": str(whole / CACHE_DIR)}
+    out = tmp_path / "out"
+    args = ["diagnose", str(data), "--out", str(out), "--cause", "slip_lambda_max",
+            "--no-progress"]
+    process = subprocess.Popen([sys.executable, "-c", "import sys; from skidsteer.cli import "
+                                "main; sys.exit(main(sys.argv[1:]))", *args])
+    deadline = time.monotonic() + 300
+    # killed once the base model (3) and some fit points are stored; a simulation
+    # takes ~1 s on a core, the poll 10 ms
+    while len(list((out / CACHE_DIR).glob("*.npz"))) < 9 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    stored = len(list((out / CACHE_DIR).glob("*.npz")))
+    assert 9 <= stored < 30, stored
+    assert not (out / "diagnosis.json").exists()
+    assert "unfinished skidsteer diagnose" in (out / INCOMPLETE_MARKER).read_text()
+
+    assert main(args + ["--json"]) == 0
+    resumed = json.loads((out / "diagnosis.json").read_text())
+    expected = json.loads((whole / "diagnosis.json").read_text())
+    assert _comparable(resumed) == _comparable(expected)
+    # every fit point stored before the kill was reused; the base model is simulated
+    # again (the report plots its signals, which are not stored), and so is the
+    # fitted model if it came from the store
+    assert resumed["simulations"]["reused"] == stored - 3
+    assert resumed["simulations"]["simulated"] + resumed["simulations"]["reused"] in (30, 33)
+    assert not (out / INCOMPLETE_MARKER).exists()
+    assert not list(out.rglob(".*.part*"))
+    for name in ("extended_model.xml", "figures/spectra.png", "figures/features_vs_omega.png"):
+        assert (out / name).read_bytes() == (whole / name).read_bytes(), name

@@ -262,7 +262,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from skidsteer.diagnosis import diagnose
 
-    result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None)
+    result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
+                                   cache_dir=args.cache)
     if result is None:
         return code
     g = result["gain"]
@@ -278,6 +279,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
           f"discrepancy removed, {g['extended_cause'] or 'no cause'})")
     for s in result["skipped_runs"]:
         print(f"  skipped {s.get('file')}: {s.get('reason')}")
+    if result["simulations"]["reused"]:
+        print(f"resumed: {result['simulations']['reused']} simulations reused from "
+              f"{result['simulations']['cache']}")
     print(f"report: {args.out}/report.md ({result['wall_time_s']} s)")
     return 0
 
@@ -397,6 +401,10 @@ def build_parser() -> argparse.ArgumentParser:
         if name == "diagnose":
             p.add_argument("--cause", action="append",
                            help="fit only this candidate (repeatable; default: all)")
+            p.add_argument("--cache", default=None, metavar="DIR",
+                           help="keep finished simulations here (default: OUT/.skidsteer-cache)"
+                                "; a rerun resumes from them, and diagnoses of several datasets "
+                                "of one robot can share one")
         p.add_argument("--timestep", type=float, default=None, help="simulation time step, s")
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

@@ -22,6 +22,7 @@ The feature vector, per axis of the cube:
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import warnings
 from typing import Callable, Sequence
 
@@ -32,6 +33,7 @@ from scipy import signal
 from skidsteer.measured import Dataset, RunInfo
 from skidsteer.sensor_chain import SensorChain
 from skidsteer.simulation import DriveGeometry, run_from_settled, settle
+from skidsteer.simulation_cache import model_bytes
 
 AXES = "xyz"
 START_WINDOW_S = 3.0  # ramp (<= 0.64 s at 64 deg/s) plus ~2 decay times of the slowest mode
@@ -279,32 +281,54 @@ ModelFactory = Callable[[Setup], mujoco.MjModel]
 def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: float,
                     chain: SensorChain = SensorChain(), settle_s: float = 2.0,
                     nthread: int = 2, progress: Callable[[int], None] | None = None,
-                    backend=None) -> list[Simulated]:
+                    backend=None, cache=None, signals: bool = True) -> list[Simulated]:
     """For each (model factory, groups) job, each group simulated once from rest.
 
     Models are built and settled once per (job, setup) here; the (model, group)
     runs are `simulate_group` tasks on the backend (default: nthread threads).
+
+    cache: a simulation_cache.SimulationCache; every finished run is stored in it.
+    signals=False lets a stored run stand in for a simulation: its features and
+    yaw rate come back with time_s and accel None (a fit reads only those).
     """
     from skidsteer.backends import LocalBackend
 
     backend = backend or LocalBackend(nthread)
+    results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
+                         np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
     shared: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, settled state)
-    tasks, where = [], []
+    built: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, its digest)
+    tasks, where, keys = [], [], []
     for j, (factory, groups) in enumerate(jobs):
         for k, g in enumerate(groups):
             key = (j, g.setup)
-            if key not in shared:
+            if key not in built:
                 m = factory(g.setup)
+                built[key] = (m, hashlib.sha256(model_bytes(m)).hexdigest() if cache else None)
+            m, digest = built[key]
+            entry_key = None
+            if cache is not None:
+                entry_key = cache.key(digest, settle_s, g.v_mps, g.omega_deg_s, duration_s,
+                                      chain)
+                stored = None if signals else cache.get(entry_key)
+                if stored is not None:
+                    results[j].features[k], results[j].mean_yaw_rate_deg_s[k] = stored
+                    if progress:
+                        progress(1)
+                    continue
+            if key not in shared:
                 shared[key] = (backend.share(m),
                                backend.share(settle(m, mujoco.MjData(m), settle_s)))
             tasks.append((*shared[key], g.v_mps, g.omega_deg_s, duration_s, chain))
             where.append((j, k))
-    results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
-                         np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
-    for (j, k), (time_s, accel, yaw, rates) in zip(where, backend.map(simulate_group, tasks)):
+            keys.append(entry_key)
+    for (j, k), entry_key, (time_s, accel, yaw, rates) in zip(
+            where, keys, backend.map(simulate_group, tasks)):
         r = results[j]
         r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
         r.features[k] = run_features(time_s, accel, rates)
+        if cache is not None:
+            cache.put(entry_key, r.features[k], yaw)
         if progress:
             progress(1)
     return results

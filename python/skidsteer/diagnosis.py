@@ -26,6 +26,7 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 from scipy import optimize
@@ -36,6 +37,7 @@ from skidsteer.comparison import (Comparison, Group, Observed, Simulated, group_
                                   model_factory, simulate_groups)
 from skidsteer.measured import read_dataset
 from skidsteer.sensor_chain import SensorChain
+from skidsteer.simulation_cache import CACHE_DIR, SimulationCache
 
 GRID_POINTS = 5  # across the prior, at the centres of 5 equal slices (log or linear)
 REFINE_ITERATIONS = 4  # bounded Brent between the best grid point's neighbours
@@ -71,6 +73,7 @@ class Fit:
     simulated: Simulated
     evaluations: list[tuple[float, float]]  # (main value, training error)
     realisation: int | None = None  # the random geometry's seed, for causes that have one
+    factory: Callable | None = None  # Setup -> the fitted model (to simulate it again)
 
 
 def split(observed: Observed) -> tuple[np.ndarray, np.ndarray]:
@@ -131,19 +134,24 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, log: bool):
 
 def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: float,
               train: np.ndarray, held: np.ndarray, model: str | None, timestep: float | None,
-              chain: SensorChain, backend, progress) -> Fit:
+              chain: SensorChain, backend, progress, stored=None) -> Fit:
+    """stored: a SimulationCache; simulations found in it are not run again, so the
+    fit reads their features only (Fit.simulated may lack time series)."""
     main = cause.main
     cache: dict[tuple[float, int], tuple[float, Simulated]] = {}
+
+    def factory(value, realisation):
+        return model_factory(model, cause.edit(cause.parameters(value), realisation), timestep)
 
     def evaluate(points):
         """Training errors at (main value, realisation) points, simulated in one batch."""
         points = [(float(v), int(r)) for v, r in points]
         todo = list(dict.fromkeys(p for p in points if p not in cache))
         if todo:
-            jobs = [(model_factory(model, cause.edit(cause.parameters(v), r), timestep), groups)
-                    for v, r in todo]
+            jobs = [(factory(v, r), groups) for v, r in todo]
             for p, sim in zip(todo, simulate_groups(jobs, duration_s, chain, backend=backend,
-                                                    progress=progress)):
+                                                    progress=progress, cache=stored,
+                                                    signals=False)):
                 cache[p] = (comparison.error(sim.features, train), sim)
         return [cache[p][0] for p in points]
 
@@ -179,7 +187,7 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
     return Fit(cause.name, params, main.name, _interval(evaluations, len(train), main.log),
                train_error, held_error,
                held_error ** 2 + PARAMETER_PENALTY * n_params / len(train), sim, evaluations,
-               realisation if cause.random_realisation else None)
+               realisation if cause.random_realisation else None, factory(value, realisation))
 
 
 def gain(base_held: float, extended_held: float, noise: float) -> float:
@@ -234,17 +242,32 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float
 def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
-             figures: bool = True, backend=None) -> dict:
+             figures: bool = True, backend=None, cache_dir=None) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
     extended model to out_dir when given.  Returns the diagnosis.
 
     backend: where the simulations run (skidsteer.backends; default nthread local
     threads).  On a backend wider than one fit's batch (a Ray cluster) the candidate
     causes are fitted concurrently; the numbers are the same either way.
+
+    cache_dir: where every finished simulation is kept (skidsteer.simulation_cache;
+    default out_dir/.skidsteer-cache, none without out_dir), so that a killed
+    diagnosis, rerun, resumes where it stopped and reaches the same numbers, and
+    diagnoses of several datasets of one robot share their simulations.  Until it
+    has finished, out_dir holds no diagnosis.json and a .skidsteer-incomplete marker.
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
     dataset = read_dataset(dataset_dir)
+    if cache_dir is None and out_dir is not None:
+        cache_dir = Path(out_dir) / CACHE_DIR
+    stored = SimulationCache(cache_dir) if cache_dir is not None else None
+    if out_dir is not None:
+        from skidsteer.diagnosis_report import start_outputs
+
+        start_outputs(Path(out_dir), "diagnosis.json", "diagnose",
+                      f"; finished simulations are kept in {cache_dir}, and the same command "
+                      "rerun resumes from them")
     observed = Observed.from_dataset(dataset, group_wheel_rates(model_factory(model)))
     comparison = Comparison(observed)
     groups = observed.groups
@@ -258,8 +281,11 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
         for name in names}
     bar = _Progress(len(groups) * (1 + sum(per_fit.values())), progress)
     try:
+        # a report plots the base model: its time series are needed, so with out_dir
+        # it is always simulated (a twentieth of a diagnosis)
         base = simulate_groups([(model_factory(model, timestep=timestep), groups)],
-                               observed.duration_s, chain, backend=backend, progress=bar)[0]
+                               observed.duration_s, chain, backend=backend, progress=bar,
+                               cache=stored, signals=out_dir is not None)[0]
         base_error = comparison.error(base.features, all_runs)
         base_held = comparison.error(base.features, held, bias_runs=train)
         fits, not_applicable = [], []
@@ -268,7 +294,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
                 try:
                     return fit_cause(cause_registry.get(name), comparison, groups,
                                      observed.duration_s, train, held, model, timestep, chain,
-                                     backend, bar)
+                                     backend, bar, stored)
                 except cause_registry.NotApplicable as err:
                     return {"cause": name, "reason": str(err)}
 
@@ -283,6 +309,14 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     noise = comparison.noise_error()
     result, named, reason = verdict(base_error, base_held, fits, noise)
     reference = named or (fits[0] if fits else None)
+    if out_dir is not None and reference is not None and reference.simulated.accel[0] is None:
+        # read from the cache: simulate the fit the report plots again, for its signals
+        again = simulate_groups([(reference.factory, groups)], observed.duration_s, chain,
+                                backend=backend, cache=stored)[0]
+        if not np.array_equal(again.features, reference.simulated.features, equal_nan=True):
+            raise RuntimeError(f"{reference.cause}'s simulation differs from the one stored "
+                               f"in {stored.root}: delete that directory and rerun")
+        reference.simulated = again
     diagnosis = {
         "verdict": result,
         "cause": named.cause if named else None,
@@ -320,6 +354,8 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
                                                for i in observed.run_group[held]}),
                     "duration_s": observed.duration_s},
         "model": model or "built-in (per run's config)",
+        "simulations": ({"simulated": stored.stores, "reused": stored.hits,
+                         "cache": str(stored.root)} if stored else None),
         "wall_time_s": None,
     }
     diagnosis["wall_time_s"] = round(time.time() - started, 1)
@@ -338,6 +374,10 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
     against the trials' spread; writes comparison.json, report.md and figures."""
     started = time.time()
     dataset = read_dataset(dataset_dir)
+    if out_dir is not None:
+        from skidsteer.diagnosis_report import start_outputs
+
+        start_outputs(Path(out_dir), "comparison.json", "compare")
     observed = Observed.from_dataset(dataset, group_wheel_rates(model_factory(model)))
     comparison = Comparison(observed)
     bar = _Progress(len(observed.groups), progress)

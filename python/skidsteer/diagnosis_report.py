@@ -210,12 +210,34 @@ def group_markdown(rows: list[dict], models: list[str]) -> str:
     return "\n".join(out)
 
 
+def start_outputs(out: Path, result_name: str, command: str, note: str = "") -> None:
+    """Marks out as unfinished until finish_outputs: removes a previous run's result file
+    (written last, so its presence means a complete set of outputs), writes the
+    .skidsteer-incomplete marker (its text ends with note) and clears stale
+    temporaries."""
+    from skidsteer.measured import INCOMPLETE_MARKER
+
+    out.mkdir(parents=True, exist_ok=True)
+    (out / result_name).unlink(missing_ok=True)
+    write_atomically(out / INCOMPLETE_MARKER, lambda tmp: tmp.write_text(
+        f"an unfinished skidsteer {command}: no {result_name} yet{note}\n"))
+    for stale in out.rglob(".*.part*"):  # temporaries of a killed write_atomically
+        stale.unlink()
+
+
+def finish_outputs(out: Path, result_name: str, result: dict) -> None:
+    """Writes the result file, the last of the outputs, and removes the marker."""
+    from skidsteer.measured import INCOMPLETE_MARKER
+
+    write_json(out / result_name, result)
+    (out / INCOMPLETE_MARKER).unlink(missing_ok=True)
+
+
 def write_compare_outputs(out: Path, summary: dict, observed: Observed, comparison: Comparison,
                           base: Simulated, figures: bool = True) -> None:
     out.mkdir(parents=True, exist_ok=True)
     rows = group_table(observed, comparison, {"base": base})
     summary["groups"] = rows
-    write_json(out / "comparison.json", summary)
     lines = [
         "# skidsteer compare", "",
         f"Dataset `{summary['dataset']['root']}`: {summary['dataset']['runs']} runs in "
@@ -233,6 +255,7 @@ def write_compare_outputs(out: Path, summary: dict, observed: Observed, comparis
                   "![features vs omega](figures/features_vs_omega.png)", ""]
     lines += _skipped(summary["skipped_runs"])
     write_text(out / "report.md", "\n".join(lines))
+    finish_outputs(out, "comparison.json", summary)
 
 
 def _discrepancy_table(items: list[dict]) -> str:
@@ -284,7 +307,6 @@ def write_outputs(out: Path, diagnosis: dict, observed: Observed, comparison: Co
                                     observed.groups[0].setup, model, timestep,
                                     named.realisation)
         diagnosis["extended_model"] = path.name
-    write_json(out / "diagnosis.json", diagnosis)
     g = diagnosis["gain"]
     lines = [
         "# skidsteer diagnose", "",
@@ -334,5 +356,8 @@ def write_outputs(out: Path, diagnosis: dict, observed: Observed, comparison: Co
     if diagnosis["not_applicable"]:
         lines += ["## Causes that do not apply to this model", ""] + [
             f"- {n['cause']}: {n['reason']}" for n in diagnosis["not_applicable"]] + [""]
-    lines += [f"Wall time: {diagnosis['wall_time_s']} s.", ""]
+    sims = diagnosis["simulations"]
+    lines += [f"Wall time: {diagnosis['wall_time_s']} s ({sims['simulated']} simulations run, "
+              f"{sims['reused']} reused from `{sims['cache']}`).", ""]
     write_text(out / "report.md", "\n".join(lines))
+    finish_outputs(out, "diagnosis.json", diagnosis)
