@@ -4,8 +4,12 @@ returns.  (The kill-and-resume test itself is in test_diagnose.py.)"""
 from __future__ import annotations
 
 import hashlib
+import shutil
+import subprocess
+import sys
 
 import numpy as np
+import pytest
 
 from skidsteer import causes
 from skidsteer.comparison import Setup, model_factory
@@ -74,3 +78,18 @@ def test_entries_come_back_exactly_and_bad_ones_are_misses(tmp_path):
     (tmp_path / "c" / "bad.npz").write_bytes(b"not an npz")
     assert cache.get("bad") is None
     assert not list((tmp_path / "c").glob(".*.part"))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="GNU build-ids are an ELF matter")
+def test_the_installed_plugin_has_no_build_id():
+    # a build-id made every install of the same sources differ (it hashed a per-build
+    # path), so a reinstall, which the main job does on every run, invalidated every
+    # stored simulation; plugin/tire/CMakeLists.txt links without one
+    from skidsteer import _plugin
+
+    readelf = shutil.which("readelf")
+    if readelf is None:
+        pytest.skip("readelf (binutils) is not installed")
+    notes = subprocess.run([readelf, "--notes", str(_plugin.library_path())],
+                           capture_output=True, text=True, check=True).stdout
+    assert "NT_GNU_BUILD_ID" not in notes, notes
