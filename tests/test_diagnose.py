@@ -398,3 +398,18 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     assert not list(out.rglob(".*.part*"))
     for name in ("extended_model.xml", "figures/spectra.png", "figures/features_vs_omega.png"):
         assert (out / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def test_compare_writes_its_result_last_and_leaves_no_marker(written, tmp_path):
+    # compare keeps diagnose's rule: comparison.json present means the outputs are whole
+    from skidsteer.measured import INCOMPLETE_MARKER
+
+    data, _, _ = written
+    out = tmp_path / "compare"
+    out.mkdir()
+    (out / "comparison.json").write_text("{\"stale\": true}\n")  # a previous run's
+    summary = diagnosis.compare(data, out, progress=False, figures=False)
+    saved = json.loads((out / "comparison.json").read_text())
+    assert "stale" not in saved and saved["verdict"] == summary["verdict"] == "discrepancy"
+    assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
+    assert (out / "report.md").is_file() and not (out / INCOMPLETE_MARKER).exists()

@@ -22,7 +22,6 @@ The feature vector, per axis of the cube:
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import warnings
 from typing import Callable, Sequence
 
@@ -33,7 +32,7 @@ from scipy import signal
 from skidsteer.measured import Dataset, RunInfo
 from skidsteer.sensor_chain import SensorChain
 from skidsteer.simulation import DriveGeometry, run_from_settled, settle
-from skidsteer.simulation_cache import model_bytes
+from skidsteer.simulation_cache import model_digest
 
 AXES = "xyz"
 START_WINDOW_S = 3.0  # ramp (<= 0.64 s at 64 deg/s) plus ~2 decay times of the slowest mode
@@ -304,7 +303,7 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
             key = (j, g.setup)
             if key not in built:
                 m = factory(g.setup)
-                built[key] = (m, hashlib.sha256(model_bytes(m)).hexdigest() if cache else None)
+                built[key] = (m, model_digest(m) if cache is not None else None)
             m, digest = built[key]
             entry_key = None
             if cache is not None:

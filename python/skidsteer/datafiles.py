@@ -42,6 +42,12 @@ def write_atomically(path: Path, write, keep_suffix: bool = False) -> Path:
     return path
 
 
+def remove_temporaries(directory: Path) -> None:
+    """Deletes, below directory, the temporaries a killed write_atomically left."""
+    for stale in Path(directory).rglob(".*.part*"):
+        stale.unlink(missing_ok=True)
+
+
 def write_accelerometer_csv(path: Path, time_s: np.ndarray, accel: np.ndarray) -> Path:
     """CSV run file: time_s and the cube's accelerations in m/s^2, gravity included."""
     data = np.column_stack([time_s, accel])

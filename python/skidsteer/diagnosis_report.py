@@ -12,7 +12,7 @@ from skidsteer import signals
 from skidsteer.analysis import _plain, _write_json
 from skidsteer.comparison import (AXES, N_POWER, STEADY_FROM_S, Comparison, Observed,
                                   Simulated, feature_names)
-from skidsteer.datafiles import write_atomically
+from skidsteer.datafiles import remove_temporaries, write_atomically
 from skidsteer.report import _fmt as report_fmt
 from skidsteer.report import _table
 
@@ -221,8 +221,7 @@ def start_outputs(out: Path, result_name: str, command: str, note: str = "") -> 
     (out / result_name).unlink(missing_ok=True)
     write_atomically(out / INCOMPLETE_MARKER, lambda tmp: tmp.write_text(
         f"an unfinished skidsteer {command}: no {result_name} yet{note}\n"))
-    for stale in out.rglob(".*.part*"):  # temporaries of a killed write_atomically
-        stale.unlink()
+    remove_temporaries(out)
 
 
 def finish_outputs(out: Path, result_name: str, result: dict) -> None:

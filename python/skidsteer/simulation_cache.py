@@ -55,6 +55,11 @@ def model_bytes(m: mujoco.MjModel) -> bytes:
     return buffer.tobytes()
 
 
+def model_digest(m: mujoco.MjModel) -> str:
+    """sha256 of the compiled model (the model part of a key)."""
+    return hashlib.sha256(model_bytes(m)).hexdigest()
+
+
 class SimulationCache:
     """Feature vectors of finished simulations in directory `root` (created on the
     first store); counts what it served and what it stored."""
@@ -66,7 +71,7 @@ class SimulationCache:
         self._lock = threading.Lock()  # fits running concurrently share one cache
 
     def key(self, model_digest: str, *task) -> str:
-        """model_digest: sha256 of model_bytes; task: the simulation's other inputs
+        """model_digest: model_digest(the model); task: the simulation's other inputs
         (their repr is exact for floats and for the frozen SensorChain)."""
         text = repr((code_fingerprint(), model_digest, task))
         return hashlib.sha256(text.encode()).hexdigest()

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Iterable
 
 
-from skidsteer.datafiles import write_atomically
+from skidsteer.datafiles import remove_temporaries, write_atomically
 from skidsteer.measured import INCOMPLETE_MARKER, RunInfo, write_run, write_runs_csv
 
 THESIS_OMEGAS_DEG_S = tuple(range(2, 65, 2))  # Sec. 3.2: 2 to 64 deg/s in steps of 2
@@ -87,8 +87,7 @@ def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
     out_dir.mkdir(parents=True, exist_ok=True)
     todo = [r for r in runs if not (out_dir / r.info.file).is_file()]
     marker = out_dir / INCOMPLETE_MARKER
-    for stale in out_dir.glob(".*.part*"):  # temporaries of a killed write_atomically
-        stale.unlink()
+    remove_temporaries(out_dir)
     if todo:
         # until runs.csv is written the directory is not a dataset (read_dataset
         # refuses it), so that a killed sweep never looks complete
