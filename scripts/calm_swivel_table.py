@@ -1,5 +1,5 @@
 """The calm-swivel table: the soft start against the thesis's feed-forward, per floor and
-omega, at the same mean yaw rate (skidsteer.calm_swivel).
+omega, at the same mean yaw rate (skidsteer.tasks.calm_swivel).
 
     python scripts/calm_swivel_table.py [--out docs/calm_swivel] [--readme README.md]
 
@@ -15,8 +15,8 @@ import json
 import time
 from pathlib import Path
 
-from skidsteer import calm_swivel
-from skidsteer.datafiles import write_atomically
+from skidsteer.data.files import write_atomically
+from skidsteer.tasks import calm_swivel
 from update_readme_tables import write_between_markers  # scripts/, beside this file
 
 REPO = Path(__file__).resolve().parents[1]
@@ -29,7 +29,7 @@ def main() -> None:
     parser.add_argument("--readme", default=str(REPO / "README.md"))
     args = parser.parse_args()
     started = time.time()
-    rows = calm_swivel.compare()
+    rows = calm_swivel.compare_controllers()
     table = calm_swivel.markdown_table(rows)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -5,6 +5,7 @@
 #           run against a local Ray instance), and the system packages the
 #           rendering tests need (Xvfb; EGL/Mesa), installed with apt-get when possible.
 # Environment: PYTHON (default python3), SKIDSTEER_VENV (default .venv).
+# The versions installed are constraints.txt's (on Python 3.11).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -50,6 +51,14 @@ fi
 
 [[ -x "$VENV/bin/python" ]] || "$PYTHON" -m venv "$VENV"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
+# The library versions the README's numbers were measured with (constraints.txt, made
+# on Python 3.11): for pip and for the plugin's isolated build.
+if [[ "$("$VENV/bin/python" -c 'import sys; print(sys.version_info[:2] == (3, 11))')" == "True" ]]; then
+  export PIP_CONSTRAINT="$PWD/constraints.txt"
+else
+  echo "install: constraints.txt pins Python 3.11's libraries; this is $("$VENV/bin/python" -V):" \
+       "installing the newest compatible ones (numbers may differ in the last digits)" >&2
+fi
 if [[ $with_tests -eq 1 ]]; then
   "$VENV/bin/python" -m pip install --quiet ".[test,ray]"
 else

@@ -3,7 +3,7 @@
 A fixed, small set of simulated swivels in place (20 s each, ~1.7 s of CPU
 per run), of our model (variant "ours") and of the model as the thesis
 published it (variant "thesis", eq. 6.4 relay contact point), is analysed as
-the thesis's Appendix A / Sec. 3.2 (skidsteer.analysis.swivel_features).
+the thesis's Appendix A / Sec. 3.2 (skidsteer.features.swivel_features).
 
 Vibrating or quiet, per case and accelerometer axis.  Our model's steady swivel
 barely vibrates: its 1-50 Hz RMS is numerical residue (< 0.004 m/s^2 at the
@@ -12,7 +12,7 @@ residue are not features -- across seeded repeats a band peak flips between
 bins far apart and the amplitude spreads by hundreds of percent.  The thesis
 variant carries a real stick-slip limit cycle (~22 Hz, 0.1-0.15 m/s^2).  So an
 axis is "vibrating" when the reference run AND every repeat trial reach
-skidsteer.report.VIBRATION_FLOOR_M_S2 (0.02 m/s^2, 1-50 Hz RMS, the floor the
+skidsteer.reports.reproduction.VIBRATION_FLOOR_M_S2 (0.02 m/s^2, 1-50 Hz RMS, the floor the
 report uses) on it; only then are its band features stored and compared:
 
     low_band_peak_hz, high_band_peak_hz   Welch PSD maxima in 1-10 / 20-50 Hz
@@ -72,14 +72,19 @@ import mujoco
 import numpy as np
 import scipy
 
-from skidsteer import signals
-from skidsteer.analysis import AXES, swivel_features
-from skidsteer.datafiles import write_atomically
-from skidsteer.experiments import swivel_model
-from skidsteer.report import VIBRATION_FLOOR_M_S2
-from skidsteer.simulation import LOG_RATE_HZ, TRIAL_DEFLECTION_M, run_batch
+from skidsteer.data.files import write_atomically
+from skidsteer.features import signals
+from skidsteer.features.extract import AXES, swivel_features
+from skidsteer.reports.reproduction import VIBRATION_FLOOR_M_S2
+from skidsteer.robot import Setup, load_model
+from skidsteer.simulation.run import LOG_RATE_HZ, TRIAL_DEFLECTION_M, run_batch
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def swivel_model(config: str, surface: str, mount: str, variant: str) -> mujoco.MjModel:
+    """The model of a golden case (its "config" is the build, its "surface" the floor)."""
+    return load_model(Setup(build=config, floor=surface, mount=mount, variant=variant))
 DEFAULT_OUT = Path("tests/golden/swivel_features.json")
 SCHEMA = 2
 
@@ -87,7 +92,7 @@ DURATION_S = 20.0
 SETTLE_S = 2.0
 MOUNT = "platform"
 VARIANT = "ours"
-# (variant, config, surface, omega deg/s).  Ours: the extended robot on concrete
+# (variant, config, surface, omega deg/s): the golden file's keys for build and floor.  Ours: the extended robot on concrete
 # at a slow and the thesis's usual swivel, on carpet, and the bare platform
 # build -- quiet, so mostly "stays quiet" checks plus the yaw rate.  Thesis
 # variant: the same builds and surfaces, whose stick-slip limit cycle gives FFT

@@ -2,7 +2,7 @@
 
 Recipe (this file is it): the extended robot swivelling on concrete at 15, 30
 and 60 deg/s, three trials of 10 s each, recorded through the default sensor
-chain (skidsteer.sensor_chain.SensorChain: 80 Hz bandwidth, noise, 60 Hz hum,
+chain (skidsteer.simulation.sensor_chain.SensorChain: 80 Hz bandwidth, noise, 60 Hz hum,
 zero-g offset errors) as CSV (LabVIEW xlsx is 10x larger), with one hidden
 effect.  The effect and its parameters are written to data/sample.truth.json,
 outside the dataset, so that `diagnose data/sample` cannot see them.
@@ -16,8 +16,9 @@ import shutil
 from pathlib import Path
 
 import skidsteer  # noqa: F401  (registers the plugin)
-from skidsteer.datafiles import write_atomically
-from skidsteer.synth import make_dataset
+from skidsteer.data.files import write_atomically
+from skidsteer.diagnosis.synth import make_dataset
+from skidsteer.robot import Setup
 
 RECIPE = {
     "effect": "mast_compliance",
@@ -26,8 +27,8 @@ RECIPE = {
     "omegas": (15.0, 30.0, 60.0),
     "trials": 3,
     "duration_s": 10.0,
-    "surface": "concrete",
-    "config": "extended",
+    "build": "extended",
+    "floor": "concrete",
     "file_format": "csv",
 }
 
@@ -41,7 +42,9 @@ def main() -> None:
     # run leaves the previous sample (and a .partial directory) behind
     partial = args.out.with_name(args.out.name + ".partial")
     shutil.rmtree(partial, ignore_errors=True)
-    truth = make_dataset(partial, **RECIPE)
+    recipe = dict(RECIPE)
+    setup = Setup(build=recipe.pop("build"), floor=recipe.pop("floor"))
+    truth = make_dataset(partial, setup=setup, **recipe)
     path = args.out.with_name(args.out.name + ".truth.json")
     text = json.dumps({**truth, "recipe": {k: v for k, v in RECIPE.items()}}, indent=2) + "\n"
     if args.out.exists():

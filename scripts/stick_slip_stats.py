@@ -23,13 +23,20 @@ from __future__ import annotations
 
 import argparse
 
+import sys
+from pathlib import Path
+
 import mujoco
 import numpy as np
+
 import skidsteer
-from skidsteer import signals
-from skidsteer import tire_reference as tr
-from skidsteer.models import load_spec
+from skidsteer.features import signals
+from skidsteer.robot import load_spec
 from skidsteer.simulation import DriveGeometry, rollout, sensor_slice, settle
+
+# the law's internals (contact kinematics, friction factors) from its Python reference
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import tire_reference as tr  # noqa: E402
 
 def lateral_effective_mass(m: mujoco.MjModel, d: mujoco.MjData, ref: tr.TireReference) -> list:
     """Per wheel (normal force N, 1 / (J M^-1 J^T) of its lateral contact direction, kg)."""

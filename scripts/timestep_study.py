@@ -33,8 +33,8 @@ import numpy as np
 from scipy import signal
 
 import skidsteer
-from skidsteer import signals
-from skidsteer.datafiles import write_atomically
+from skidsteer.data.files import write_atomically
+from skidsteer.features import signals
 from skidsteer.simulation import rollout, run_commanded, sensor_slice, settle
 
 STEPS = [2e-3, 1.5e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5]

@@ -7,8 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from skidsteer import signals
-from skidsteer.analysis import analyze_file, analyze_paths, free_response_features, swivel_features
+from skidsteer.features import signals
+from skidsteer.features.extract import free_response_features, swivel_features
+from skidsteer.reports.analysis import analyze_file, analyze_paths
 
 FS = 1000.0
 T = np.arange(20000) / FS  # 20 s at 1 kHz, as the thesis's runs
@@ -185,10 +186,10 @@ def _is_png(path):
 
 
 def test_figures(tmp_path, swivel):
-    from skidsteer import figures
+    from skidsteer.reports import figures
 
     accel, _, _, feats = swivel
-    rows = [{"omega_deg_s": w, "surface": s, "config": "extended", **feats}
+    rows = [{"omega_deg_s": w, "floor": s, "build": "extended", **feats}
             for s in ("concrete", "tile") for w in (10.0, 30.0)]
     t = np.arange(2**12) / FS
     y = 9.81 + damped(t, 2.0, 6.04)
@@ -205,7 +206,7 @@ def test_figures(tmp_path, swivel):
 
 
 def test_analyze_file_and_paths(tmp_path):
-    from skidsteer.measured import write_run
+    from skidsteer.data import write_run
 
     t = np.arange(4000) / FS  # 4 s: enough for the features, quick to write and plot
     data = tmp_path / "data"

@@ -18,8 +18,9 @@ import sys
 import pytest
 
 import skidsteer  # noqa: F401
-from skidsteer import backends, sweep
-from skidsteer.backends import BackendUnavailable, LocalBackend, make_backend
+from skidsteer.experiments import sweep
+from skidsteer.simulation import backends
+from skidsteer.simulation.backends import BackendUnavailable, LocalBackend, make_backend
 from skidsteer.cli import main
 
 RAY_REQUIRED = os.environ.get("SKIDSTEER_REQUIRE_RAY_TESTS") == "1"
@@ -112,7 +113,7 @@ def test_the_sweep_command_runs_on_ray(ray_backend, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def slip_dataset(tmp_path_factory):
-    from skidsteer.synth import make_dataset
+    from skidsteer.diagnosis.synth import make_dataset
 
     root = tmp_path_factory.mktemp("ray-diagnose") / "data"
     # 8 s: the shortest records the band features take (see test_diagnose.py)
@@ -121,7 +122,7 @@ def slip_dataset(tmp_path_factory):
 
 
 def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
-    from skidsteer.diagnosis import diagnose
+    from skidsteer.reports.diagnosis import diagnose
 
     # ground_roughness draws random floors (heightfields in the pickled models) and
     # chooses one; two candidates, fitted concurrently as on a wide cluster (the

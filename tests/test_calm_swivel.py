@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 import skidsteer  # noqa: F401  (registers the tire plugin)
-from skidsteer import calm_swivel, tasks
-from skidsteer.models import load_model
+from skidsteer import tasks
+from skidsteer.robot import load_model
+from skidsteer.tasks import calm_swivel
 from skidsteer.tasks.pioneer3at import feedforward_action
 
 

@@ -1,4 +1,4 @@
-"""The command line: the main job writes a run in the measured-data layout."""
+"""The command line: the main job writes a run in the data format (docs/data-format.md)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from skidsteer.cli import main
-from skidsteer.measured import DataError, read_dataset
+from skidsteer.data import DataError, read_dataset
 
 
 def test_swivel_writes_accelerometer_log_in_measured_data_layout(tmp_path, capsys):
@@ -21,7 +21,7 @@ def test_swivel_writes_accelerometer_log_in_measured_data_layout(tmp_path, capsy
                  "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     with open(out) as f:
-        assert f.readline().strip() == "time_s,ax,ay,az"  # shared/spec/measured-data.md
+        assert f.readline().strip() == "time_s,ax,ay,az"  # docs/data-format.md
     data = np.loadtxt(out, delimiter=",", skiprows=1)
     assert data.shape == (2000, 4)
     np.testing.assert_allclose(np.diff(data[:, 0]), 1e-3, atol=1e-6)  # 1 kHz as the thesis
@@ -54,7 +54,7 @@ def test_pull_json_and_trace_file(tmp_path, capsys):
     assert main(["pull", "--direction", "lateral", "--height", "0", "--wheels", "locked",
                  "--distance", "0.003", "--out", str(trace), "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
-    assert result["config"] == "platform"  # the rig of Sec. 3.3 pulls the platform
+    assert result["build"] == "platform"  # the rig of Sec. 3.3 pulls the platform
     assert len(result["trace"]["travel_m"]) == len(result["trace"]["force_N"]) > 100
     data = np.loadtxt(trace, delimiter=",", skiprows=1)
     assert data.shape[1] == 2 and data[-1, 0] == pytest.approx(0.003, abs=1e-4)

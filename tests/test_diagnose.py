@@ -23,12 +23,16 @@ import numpy as np
 import pytest
 
 import skidsteer  # noqa: F401
-from skidsteer import causes, diagnosis
-from skidsteer.comparison import (CENTRIPETAL_RESOLUTION_M_S2, N_POWER, Comparison, Observed,
-                                  feature_names, run_features)
-from skidsteer.models import load_model
-from skidsteer.sensor_chain import SensorChain
-from skidsteer.synth import OUTSIDE_EFFECTS, make_dataset
+from skidsteer import diagnosis
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.comparison import CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset
+from skidsteer.features.extract import N_POWER
+from skidsteer.features.extract import comparison_feature_names as feature_names
+from skidsteer.features.extract import comparison_features as run_features
+from skidsteer.reports.diagnosis import compare, diagnose
+from skidsteer.robot import load_model
+from skidsteer.simulation.sensor_chain import SensorChain
 
 NAMED = ("mast_compliance", "loose_payload", "ground_roughness", "wheel_eccentricity",
          "slip_lambda_max", "friction_levels", "sensor_mount")
@@ -270,7 +274,7 @@ def hidden(tmp_path_factory):
             root = tmp_path_factory.mktemp(f"hidden-{effect}")
             truth = make_dataset(root / "data", effect, seed=SEED,
                                  duration_s=RECORD_S.get(effect, DURATION_S))
-            result = diagnosis.diagnose(root / "data", root / "out" if out else None,
+            result = diagnose(root / "data", root / "out" if out else None,
                                         progress=False, figures=out, cache_dir=shared)
             cache[effect] = (truth, result, root)
         return cache[effect]
@@ -323,7 +327,7 @@ def written(tmp_path_factory):
     with open(data / "runs.csv", "a") as f:
         f.write("broken.csv,0,30,concrete,extended,platform,4\n")
     out = root / "out"
-    result = diagnosis.diagnose(data, out, progress=False, candidates=["slip_lambda_max"])
+    result = diagnose(data, out, progress=False, candidates=["slip_lambda_max"])
     return data, out, result
 
 
@@ -361,8 +365,8 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     # look finished, and the same command rerun must reuse what was simulated and
     # write what the uninterrupted diagnose wrote
     from skidsteer.cli import main
-    from skidsteer.simulation_cache import CACHE_DIR
-    from skidsteer.measured import INCOMPLETE_MARKER
+    from skidsteer.data import INCOMPLETE_MARKER
+    from skidsteer.simulation.cache import CACHE_DIR
 
     data, whole, whole_result = written
     # base model and 9 fit points (5 grid, 4 Brent), 3 commands each
@@ -402,13 +406,13 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
 
 def test_compare_writes_its_result_last_and_leaves_no_marker(written, tmp_path):
     # compare keeps diagnose's rule: comparison.json present means the outputs are whole
-    from skidsteer.measured import INCOMPLETE_MARKER
+    from skidsteer.data import INCOMPLETE_MARKER
 
     data, _, _ = written
     out = tmp_path / "compare"
     out.mkdir()
     (out / "comparison.json").write_text("{\"stale\": true}\n")  # a previous run's
-    summary = diagnosis.compare(data, out, progress=False, figures=False)
+    summary = compare(data, out, progress=False, figures=False)
     saved = json.loads((out / "comparison.json").read_text())
     assert "stale" not in saved and saved["verdict"] == summary["verdict"] == "discrepancy"
     assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]

@@ -94,7 +94,7 @@ def test_golden_file_uses_the_report_vibration_floor(data):
     for case in data["cases"]:
         assert case["vibration_floor_m_s2"] == golden.VIBRATION_FLOOR_M_S2, (
             f"case {case['name']}: vibrating / quiet axes were decided with a floor of "
-            f"{case['vibration_floor_m_s2']} m/s^2, skidsteer.report now has "
+            f"{case['vibration_floor_m_s2']} m/s^2, skidsteer.reports.reproduction now has "
             f"{golden.VIBRATION_FLOOR_M_S2}; regenerate with: {_regenerate()}")
 
 

@@ -3,7 +3,7 @@
 tests/malformed/dataset is one dataset: three good runs and every kind of bad
 input (see tests/malformed/make_corpus.py).  expected.json gives, for each bad
 file, the fragments its message must contain (file and place, per
-../shared/spec/measured-data.md).  The good runs must load; every bad one must
+docs/data-format.md).  The good runs must load; every bad one must
 be skipped with its message; nothing else may be skipped, and no other
 exception than the reader's DataError may escape.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from skidsteer.cli import main
-from skidsteer.measured import read_dataset
+from skidsteer.data import read_dataset
 
 CORPUS = Path(__file__).resolve().parent / "malformed"
 EXPECTED = json.loads((CORPUS / "expected.json").read_text())

@@ -1,4 +1,4 @@
-"""Measured-data reader (shared/spec/measured-data.md): round trips, names, datasets, bad input."""
+"""The readers of docs/data-format.md: run files and datasets, round trips, names, bad input."""
 
 from __future__ import annotations
 
@@ -7,8 +7,18 @@ import openpyxl
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from skidsteer import measured as m
-from skidsteer.measured import DataError, RunInfo
+from skidsteer import FLOORS
+from skidsteer.data import dataset as ds_
+from skidsteer.data import recording as m
+from skidsteer.data.dataset import RunInfo
+from skidsteer.data.recording import DataError
+from skidsteer.robot import Setup
+
+
+def info(file, v, w, floor, build, mount, trial, position=None, notes=""):
+    """A RunInfo of the default robot."""
+    return RunInfo(file, v, w, Setup(build=build, floor=floor, mount=mount,
+                                     accel_position_m=position), trial, notes)
 
 N = m.MIN_SAMPLES + 52  # 2100 samples at 1 kHz
 
@@ -98,8 +108,8 @@ def test_write_run_rejects_bad_shapes_and_suffix(tmp_path):
 
 # --------------------------------------------------------------------------- thesis names
 
-def _fields(v, w, t, surface, config, mount, trial):
-    return dict(v_mps=v, omega_deg_s=w, duration_s=t, surface=surface, config=config,
+def _fields(v, w, t, floor, build, mount, trial):
+    return dict(v_mps=v, omega_deg_s=w, duration_s=t, floor=floor, build=build,
                 mount=mount, trial=trial)
 
 
@@ -112,18 +122,18 @@ def _fields(v, w, t, surface, config, mount, trial):
     ("v0-w4-t20-tile.xlsx", _fields(0, 4, 20, "tile", "extended", "platform", 1)),
 ])
 def test_parse_thesis_name(name, fields):
-    assert m.parse_thesis_name(name) == fields
+    assert ds_.parse_thesis_name(name, FLOORS) == fields
 
 
 @pytest.mark.parametrize("name, message", [
     ("v0-w10-t20-OnWheel-grass.xlsx", "unknown token 'grass'"),
     ("v0-w10-t20-OnWheel.xlsx", "no floor token"),
-    ("v0-w10-t20-tile-carpet.xlsx", "two surface tokens"),
+    ("v0-w10-t20-tile-carpet.xlsx", "two floor tokens"),
     ("run1.xlsx", "not a thesis run name"),
 ])
 def test_parse_thesis_name_errors(name, message):
     with pytest.raises(DataError, match=message) as e:
-        m.parse_thesis_name(name)
+        ds_.parse_thesis_name(name, FLOORS)
     assert name in str(e.value)
 
 
@@ -227,19 +237,32 @@ def test_saturation_names_every_axis_and_first_row(tmp_path):
     assert ("axis x from row 32, column ax (-17.00 m/s^2); "
             "axis z from row 82, column az (+16.70 m/s^2)") in str(e.value)
     # samples just under the limit are fine (a few of them: a whole record at
-    # 1.7 g would be refused as wrong units, its mean being no longer 1 g)
+    # 1.7 g would be refused as wrong units, its magnitude being no longer 1 g)
     a[80:120, 2] = 0.999 * m.SENSOR_RANGE_M_S2 - 1e-6
     a[30, 0] = 0
     m.read_run(write_csv(tmp_path / "r.csv", t, a))
 
 
+def test_a_sensor_turning_with_a_wheel_is_not_refused_as_wrong_units(tmp_path):
+    # Sec. 3.2's OnWheel runs: gravity turns with the cube, so the mean vector of the
+    # record averages towards zero over whole revolutions while every sample still
+    # reads 1 g; the units check reads the magnitude, not the mean vector
+    t = np.arange(20000) / 1000.0
+    angle = 2 * np.pi * 0.13 * t  # a wheel at 10 deg/s of swivel turns at ~0.13 Hz
+    a = np.column_stack([9.81 * np.sin(angle), 0.05 * np.sin(2 * np.pi * 7 * t),
+                         9.81 * np.cos(angle)])
+    assert np.linalg.norm(a.mean(axis=0)) < 0.5 * 9.8  # what the old check refused
+    rec = m.read_run(write_csv(tmp_path / "v0-w10-t20-OnWheel-concrete.csv", t, a))
+    assert rec.accel.shape == (20000, 3)
+
+
 # --------------------------------------------------------------------------- datasets
 
 INFOS = [
-    RunInfo("v0-w10-t20-concrete-1.xlsx", 0.0, 10.0, "concrete", "extended", "platform", 1),
-    RunInfo("v0-w10-t20-concrete-2.csv", 0.0, 10.0, "concrete", "extended", "platform", 2),
-    RunInfo("sub/wheel.xlsx", 0.0, -20.0, "tile", "platform", "wheel", 1, (0.1, 0.2, -0.05),
-            "cube on wheel, rear"),
+    info("v0-w10-t20-concrete-1.xlsx", 0.0, 10.0, "concrete", "extended", "platform", 1),
+    info("v0-w10-t20-concrete-2.csv", 0.0, 10.0, "concrete", "extended", "platform", 2),
+    info("sub/wheel.xlsx", 0.0, -20.0, "tile", "platform", "wheel", 1, (0.1, 0.2, -0.05),
+         "cube on wheel, rear"),
 ]
 
 
@@ -249,9 +272,9 @@ def test_runs_csv_dataset_loads_good_runs_and_skips_malformed(tmp_path):
     m.write_run(tmp_path / INFOS[1].file, t, a)
     (tmp_path / "sub").mkdir()
     write_xlsx(tmp_path / INFOS[2].file, t, a, cells={("y", 57, 2): "oops"})
-    m.write_runs_csv(tmp_path, INFOS)
-    ds = m.read_dataset(tmp_path)
-    assert [info for info, _ in ds.runs] == INFOS[:2]
+    ds_.write_runs_csv(tmp_path, INFOS)
+    ds = ds_.read_dataset(tmp_path)
+    assert [i for i, _ in ds.runs] == INFOS[:2]
     assert all(rec.accel.shape == (N, 3) for _, rec in ds.runs)
     [skip] = ds.skipped
     assert skip["file"] == "sub/wheel.xlsx"
@@ -259,17 +282,26 @@ def test_runs_csv_dataset_loads_good_runs_and_skips_malformed(tmp_path):
 
 
 def test_runs_csv_round_trip_and_optional_columns(tmp_path):
-    m.write_runs_csv(tmp_path, INFOS)
+    ds_.write_runs_csv(tmp_path, INFOS)
     assert (tmp_path / "runs.csv").read_text().splitlines()[0] == \
-        "file,v_mps,omega_deg_s,surface,config,mount,trial,accel_x_m,accel_y_m,accel_z_m,notes"
-    for info in INFOS:
-        (tmp_path / info.file).parent.mkdir(exist_ok=True)
-        (tmp_path / info.file).touch()
-    ds = m.read_dataset(tmp_path, load=False)
-    assert ds.runs == [(info, None) for info in INFOS] and ds.skipped == []
-    m.write_runs_csv(tmp_path, INFOS[:2])
+        "file,v_mps,omega_deg_s,floor,build,mount,trial,accel_x_m,accel_y_m,accel_z_m,notes"
+    for i in INFOS:
+        (tmp_path / i.file).parent.mkdir(exist_ok=True)
+        (tmp_path / i.file).touch()
+    ds = ds_.read_dataset(tmp_path, load=False)
+    assert ds.runs == [(i, None) for i in INFOS] and ds.skipped == []
+    ds_.write_runs_csv(tmp_path, INFOS[:2])
     assert (tmp_path / "runs.csv").read_text().splitlines()[0] == \
-        "file,v_mps,omega_deg_s,surface,config,mount,trial"
+        "file,v_mps,omega_deg_s,floor,build,mount,trial"
+
+
+def test_runs_csv_reads_the_thesis_layouts_column_names(tmp_path):
+    # the thesis layout (shared/spec/measured-data.md) named them "surface" and "config"
+    (tmp_path / "a.csv").touch()
+    (tmp_path / "runs.csv").write_text("file,v_mps,omega_deg_s,surface,config,mount,trial\n"
+                                       "a.csv,0,10,carpet,platform,platform,1\n")
+    ds = ds_.read_dataset(tmp_path, load=False)
+    assert [i for i, _ in ds.runs] == [info("a.csv", 0, 10, "carpet", "platform", "platform", 1)]
 
 
 def test_runs_csv_bad_rows_are_skipped_with_row_number(tmp_path):
@@ -284,8 +316,8 @@ def test_runs_csv_bad_rows_are_skipped_with_row_number(tmp_path):
         "d.csv,0,ten,tile,extended,platform,1\n"
         "gone.csv,0,10,tile,extended,platform,1\n"
         "a.csv,0,10,tile,extended,platform,3\n")
-    ds = m.read_dataset(tmp_path, load=False)
-    assert [info.file for info, _ in ds.runs] == ["a.csv"]
+    ds = ds_.read_dataset(tmp_path, load=False)
+    assert [i.file for i, _ in ds.runs] == ["a.csv"]
     reasons = {s["reason"] for s in ds.skipped}
     assert reasons == {
         "runs.csv row 3: no file given",
@@ -302,7 +334,7 @@ def test_runs_csv_bad_rows_are_skipped_with_row_number(tmp_path):
 def test_runs_csv_with_bad_header_skips_everything_but_returns(tmp_path):
     (tmp_path / "a.csv").touch()
     (tmp_path / "runs.csv").write_text("file,v_mps,omega,surface,config,mount,trial\n")
-    ds = m.read_dataset(tmp_path)
+    ds = ds_.read_dataset(tmp_path)
     assert ds.runs == []
     assert ds.skipped[0]["file"] == "runs.csv"
     reason = ds.skipped[0]["reason"]
@@ -317,11 +349,11 @@ def test_dataset_from_thesis_names(tmp_path):
     m.write_run(tmp_path / "v0-w12-t20-carpet-2.csv", t, a)
     m.write_run(tmp_path / "notes.csv", t, a)
     write_csv(tmp_path / "v0-w14-t20-tile.csv", *signal(50))
-    ds = m.read_dataset(tmp_path)
-    assert [info for info, _ in ds.runs] == [
-        RunInfo("v0-w10-t20-OnWheel-noFrame-concrete.xlsx", 0, 10, "concrete", "platform", "wheel",
-                1, None),
-        RunInfo("v0-w12-t20-carpet-2.csv", 0, 12, "carpet", "extended", "platform", 2, None),
+    ds = ds_.read_dataset(tmp_path)
+    assert [i for i, _ in ds.runs] == [
+        info("v0-w10-t20-OnWheel-noFrame-concrete.xlsx", 0, 10, "concrete", "platform", "wheel",
+             1),
+        info("v0-w12-t20-carpet-2.csv", 0, 12, "carpet", "extended", "platform", 2),
     ]
     reasons = {s["file"]: s["reason"] for s in ds.skipped}
     assert "not a thesis run name" in reasons["notes.csv"] and "no runs.csv" in reasons["notes.csv"]
@@ -330,7 +362,7 @@ def test_dataset_from_thesis_names(tmp_path):
 
 def test_dataset_root_must_exist(tmp_path):
     with pytest.raises(DataError, match="not a directory"):
-        m.read_dataset(tmp_path / "nowhere")
+        ds_.read_dataset(tmp_path / "nowhere")
 
 
 # --------------------------------------------------------------------------- fuzz: only DataError

@@ -8,8 +8,11 @@ import pytest
 
 import skidsteer
 from conftest import INERTIA_EQ_5_1, REPO, TABLE_5_1
-from skidsteer.models import THESIS_INERTIA_EQ_5_10, composite_inertia, tire_config
-from skidsteer.tire_reference import find_wheels, floor_geoms, wheel_contact
+from skidsteer.robot import composite_inertia, load_robot, tire_config
+from skidsteer.robot.tire import find_wheels, floor_geoms
+from tire_reference import wheel_contact
+
+THESIS_INERTIA_EQ_5_10 = load_robot().variants["thesis"].composite_inertia_kg_m2
 
 import derive_mass_properties as derivation
 
@@ -90,7 +93,7 @@ def test_platform_is_the_extended_robot_without_the_frame(extended_model, platfo
 def test_models_open_with_plain_mujoco_after_import():
     # the promise: import skidsteer, then plain MuJoCo loads the files
     for name in ("pioneer3at_extended.xml", "pioneer3at.xml"):
-        m = mujoco.MjModel.from_xml_path(str(REPO / "models" / name))
+        m = mujoco.MjModel.from_xml_path(str(REPO / "models" / "pioneer3at" / name))
         d = mujoco.MjData(m)
         mujoco.mj_step(m, d)
         assert m.nplugin == 1
@@ -98,8 +101,6 @@ def test_models_open_with_plain_mujoco_after_import():
 
 def test_floors_are_named_parameter_sets():
     assert skidsteer.FLOORS == ("concrete", "tile", "carpet")
-    from skidsteer.models import tire_config
-
     assert tire_config("extended", "carpet")["floor"] == "carpet"
 
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import skidsteer
-from skidsteer.cli import tire_loads
+from skidsteer.experiments import tire_loads
+from skidsteer.robot import Setup
 from skidsteer.simulation import FULLPHYSICS, get_state, rollout, sensor_slice, settle
 
 
@@ -30,13 +31,13 @@ def test_tire_loads_at_rest_match_weight_and_eq_2_24():
     # acceptance: the four normal forces sum to m g within 0.1 % and split
     # front/rear as eq. 2.24 within 2 %.  At rest the vertical springs carry
     # the weight exactly; the residual is the settling transient (<1e-6).
-    result = tire_loads("extended", "concrete")
+    result = tire_loads(Setup(build="extended", floor="concrete"))
     assert result["sum_over_weight"] == pytest.approx(1.0, abs=1e-3)
     np.testing.assert_allclose(result["normal_forces_N"], result["eq_2_24_N"], rtol=0.02)
 
 
 def test_bare_platform_loads_match_its_weight():
-    result = tire_loads("platform", "carpet")
+    result = tire_loads(Setup(build="platform", floor="carpet"))
     assert result["sum_N"] == pytest.approx(225 / 9.8 * 9.81, rel=1e-3)
 
 

@@ -26,8 +26,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from skidsteer import FLOORS
-from skidsteer import tire_reference as tr
-from skidsteer.models import load_spec
+import tire_reference as tr
+from skidsteer.robot import load_spec
 from skidsteer.simulation import rollout
 from test_tire_reference import random_config, with_heightfield
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from skidsteer.report import VIBRATION_FLOOR_M_S2, sec_3_2_features
+from skidsteer.reports.reproduction import VIBRATION_FLOOR_M_S2, sec_3_2_features
 
 
-def _run(omega, surface, low_hz, high_hz, dominant, rms, amp, config="extended"):
+def _run(omega, floor, low_hz, high_hz, dominant, rms, amp, build="extended"):
     per_axis = lambda v: {"x": v, "y": v, "z": v}  # noqa: E731
-    return {"omega_deg_s": float(omega), "surface": surface, "config": config, "mount": "platform",
+    return {"omega_deg_s": float(omega), "floor": floor, "build": build, "mount": "platform",
             "top_peaks_hz": per_axis([high_hz, low_hz, 15.0] if dominant == "high"
                                      else [low_hz, high_hz, 15.0]),
             "dominant_band": per_axis(dominant), "rms_m_s2": per_axis(rms),

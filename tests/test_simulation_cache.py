@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from skidsteer import causes
-from skidsteer.comparison import Setup, model_factory
-from skidsteer.sensor_chain import SensorChain
-from skidsteer.simulation_cache import (SimulationCache, code_fingerprint, model_bytes,
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.comparison import model_factory
+from skidsteer.robot import Setup
+from skidsteer.simulation.sensor_chain import SensorChain
+from skidsteer.simulation.cache import (SimulationCache, code_fingerprint, model_bytes,
                                         model_digest)
 
-SETUP = Setup("concrete", "extended", "platform", None)
+SETUP = Setup(build="extended", floor="concrete")
 
 
 def test_a_model_compiles_to_the_same_bytes_every_time():
@@ -26,8 +27,9 @@ def test_every_input_of_a_simulation_changes_its_key(tmp_path):
     key = cache.key(model_digest(base), *task)
     other_models = [
         model_factory(timestep=5e-5)(SETUP),
-        model_factory()(Setup("carpet", "extended", "platform", None)),
-        model_factory()(Setup("concrete", "extended", "platform", (0.0, 0.0, 0.5))),
+        model_factory()(Setup(build="extended", floor="carpet")),
+        model_factory()(
+            Setup(build="extended", floor="concrete", accel_position_m=(0.0, 0.0, 0.5))),
         model_factory(edit=causes.get("slip_lambda_max").edit({"lambda_max": 0.2}))(SETUP),
     ]
     keys = {cache.key(model_digest(m), *task) for m in other_models}
@@ -42,7 +44,7 @@ def test_every_input_of_a_simulation_changes_its_key(tmp_path):
 
 
 def test_the_code_fingerprint_covers_the_plugin_library(tmp_path, monkeypatch):
-    from skidsteer import _plugin
+    from skidsteer.robot import plugin as _plugin
 
     before = code_fingerprint()
     copy = tmp_path / "libskidsteer_tire.so"
@@ -77,6 +79,6 @@ def test_the_installed_plugin_has_no_build_id():
     # stored simulation; plugin/tire/CMakeLists.txt links without one.  A library
     # with one lists its section, .note.gnu.build-id, in its section-name table
     # (strip keeps the section headers); nothing else in it spells that name.
-    from skidsteer import _plugin
+    from skidsteer.robot import plugin as _plugin
 
     assert b".note.gnu.build-id" not in _plugin.library_path().read_bytes()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from skidsteer.tire_reference import (
+from tire_reference import (
     Kinematics, TireParams, advance, forces, friction_factors, normal_force, reset_state)
 
 NORMAL = 70.0  # N, about a quarter of the extended robot's weight

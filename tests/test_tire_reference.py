@@ -8,8 +8,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from skidsteer.models import load_spec
-from skidsteer.tire_reference import (
+from skidsteer.robot import load_spec
+from tire_reference import (
     FLOOR_FRICTION, NSTATE_WHEEL, TireParams, TireReference, friction_factors, wheel_contact)
 
 # Both sides evaluate the same formulas in the same order in double precision;

@@ -6,7 +6,7 @@ import mujoco
 import pytest
 
 import skidsteer
-from skidsteer.models import load_spec
+from skidsteer.robot import load_spec
 
 BAD_ATTRIBUTES = [
     ("stiffness_y", "-5", "must be a finite number > 0"),

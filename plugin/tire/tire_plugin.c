@@ -15,43 +15,156 @@
 #include <mujoco/mujoco.h>
 
 #include "tire.h"
+#include "tire_contract.h"
 
 #define TIRE_PLUGIN_NAME "skidsteer.tire"
 
 // ---------------------------------------------------------------- attributes
 
-static const char* const kAttributes[] = {
-  "floor",
-  "mu_static",
-  "mu_kinetic",
-  "stiffness_z",
-  "damping_z",
-  "stiffness_y",
-  "damping_y",
-  "belt_stiffness",
-  "belt_damping",
-  "tread_stiffness_x",
-  "tread_damping_x",
-  "contact_mass",
-  "lambda_max",
-  "contact_point",
-  "radius",
+// The plugin's contract (tire_contract.h): every attribute with its default,
+// bounds, unit and source; the floors it knows by name; the state layout.
+// read_params() validates an instance's attributes against this table alone.
+enum {
+  ATTR_FLOOR = 0,
+  ATTR_MU_STATIC,
+  ATTR_MU_KINETIC,
+  ATTR_STIFFNESS_Z,
+  ATTR_DAMPING_Z,
+  ATTR_STIFFNESS_Y,
+  ATTR_DAMPING_Y,
+  ATTR_BELT_STIFFNESS,
+  ATTR_BELT_DAMPING,
+  ATTR_TREAD_STIFFNESS_X,
+  ATTR_TREAD_DAMPING_X,
+  ATTR_CONTACT_MASS,
+  ATTR_LAMBDA_MAX,
+  ATTR_CONTACT_POINT,
+  ATTR_RADIUS,
+  TIRE_NATTRIBUTE
 };
-#define TIRE_NATTRIBUTE ((int)(sizeof(kAttributes) / sizeof(kAttributes[0])))
 
-// Floors measured in the thesis (Sec. 3.3); see plugin/tire/README.md.
-typedef struct {
-  const char* name;
-  mjtNum mu_static;
-  mjtNum mu_kinetic;
-} tireFloor;
+#define POSITIVE "must be a finite number > 0"
+#define NONNEGATIVE "must be a finite number >= 0"
 
-static const tireFloor kFloors[] = {
-  {"concrete", 0.86, 0.786},
-  {"tile", 0.86, 0.786},
-  {"carpet", 0.98, 0.896},
+// The floor attribute's words and rule, written from kFloors when the library loads.
+static char kFloorNames[128];
+static char kFloorRule[192];
+
+static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
+  [ATTR_FLOOR] = {
+    "floor", "", SKIDSTEER_TIRE_CHOICE, NAN, "concrete", 0, 0, 0, 0, 0,
+    kFloorNames, "", kFloorRule,
+    "the friction set of a floor measured in Sec. 3.3 (the floors table)"},
+  [ATTR_MU_STATIC] = {
+    "mu_static", "mu_s,max", SKIDSTEER_TIRE_NUMBER, NAN, "from floor", 0, INFINITY, 1, 0, 1,
+    "", "", POSITIVE,
+    "static friction coefficient (eq. 4.10); overrides the floor's"},
+  [ATTR_MU_KINETIC] = {
+    "mu_kinetic", "mu_k,max", SKIDSTEER_TIRE_NUMBER, NAN, "from floor", 0, INFINITY, 0, 0, 1,
+    "", "", NONNEGATIVE,
+    "kinetic friction coefficient (eq. 4.10); overrides the floor's; must be <= mu_static"},
+  [ATTR_STIFFNESS_Z] = {
+    "stiffness_z", "K_z", SKIDSTEER_TIRE_NUMBER, 80000, "80000", 0, INFINITY, 1, 0, 1,
+    "", "N/m", POSITIVE,
+    "Sec. 3.3, Fig. 3.10(a): vertical compression of one wheel"},
+  [ATTR_DAMPING_Z] = {
+    "damping_z", "D_z", SKIDSTEER_TIRE_NUMBER, 70, "70", 0, INFINITY, 0, 0, 1,
+    "", "N s/m", NONNEGATIVE,
+    "eq. 6.5 (fitted in the thesis to the roll/pitch free responses)"},
+  [ATTR_STIFFNESS_Y] = {
+    "stiffness_y", "K_y", SKIDSTEER_TIRE_NUMBER, 18000, "18000", 0, INFINITY, 1, 0, 1,
+    "", "N/m", POSITIVE,
+    "Sec. 3.3, Fig. 3.9: single wheel dragged on wood (two-slope fit 15/21 kN/m); also the "
+    "value eq. 5.10 uses"},
+  [ATTR_DAMPING_Y] = {
+    "damping_y", "D_y", SKIDSTEER_TIRE_NUMBER, 30, "30", 0, INFINITY, 0, 0, 1,
+    "", "N s/m", NONNEGATIVE, "eq. 6.5"},
+  [ATTR_BELT_STIFFNESS] = {
+    "belt_stiffness", "K_b", SKIDSTEER_TIRE_NUMBER, 3000, "3000", 0, INFINITY, 1, 0, 1,
+    "", "N/m", POSITIVE,
+    "Sec. 3.3, eq. 3.8: saw-tooth ramps 5-7 kN/m over two belts"},
+  [ATTR_BELT_DAMPING] = {
+    "belt_damping", "D_b", SKIDSTEER_TIRE_NUMBER, 50, "50", 0, INFINITY, 0, 0, 1,
+    "", "N s/m", NONNEGATIVE,
+    "eq. 6.5 (the thesis's D_x, with D_x ~ D_b by eq. 4.14)"},
+  [ATTR_TREAD_STIFFNESS_X] = {
+    "tread_stiffness_x", "K_tx", SKIDSTEER_TIRE_NUMBER, INFINITY, "inf", 0, INFINITY, 1, 0, 0,
+    "", "N/m", "must be > 0 (inf: rigid tread, the thesis's K_tx >> K_belt)",
+    "eq. 4.14: K_x = K_tx K_b / (K_tx + K_b); the thesis takes K_tx >> K_b"},
+  [ATTR_TREAD_DAMPING_X] = {
+    "tread_damping_x", "D_tx", SKIDSTEER_TIRE_NUMBER, INFINITY, "inf", 0, INFINITY, 1, 0, 0,
+    "", "N s/m", "must be > 0 (inf: the thesis's D_tx >> D_belt)",
+    "eq. 4.14, the same for damping"},
+  [ATTR_CONTACT_MASS] = {
+    "contact_mass", "m_t", SKIDSTEER_TIRE_NUMBER, 0.035, "0.035", 0, INFINITY, 1, 0, 1,
+    "", "kg", POSITIVE,
+    "Sec. 6.2: half the 0.07 kg wheel; the thesis found 0.001-0.07 kg barely matters"},
+  [ATTR_LAMBDA_MAX] = {
+    "lambda_max", "lambda_max", SKIDSTEER_TIRE_NUMBER, 0.1, "0.1", 0, 1, 1, 0, 1,
+    "", "", "must lie in (0, 1]",
+    "assumed: never identified; Sec. 6.2 suggests \"order 1e-1 to 1e-2\" and we take the "
+    "upper end"},
+  [ATTR_CONTACT_POINT] = {
+    "contact_point", "", SKIDSTEER_TIRE_CHOICE, NAN, "coulomb", 0, 0, 0, 0, 0,
+    "coulomb relay", "",
+    "use coulomb (default) or relay (eq. 6.4 as the thesis simulated it)",
+    "coulomb: the contact point of eq. 4.9/4.13 with kinetic friction; relay: eq. 6.4 as the "
+    "thesis's Simulink model integrates it (relay flag on at mu_s, off at mu_k; kinetic "
+    "friction and m_t du/dt dropped), the thesis's model as published"},
+  [ATTR_RADIUS] = {
+    "radius", "r", SKIDSTEER_TIRE_NUMBER, 0, "from geom", 0, INFINITY, 0, 0, 1,
+    "", "m", "must be > 0, or unset to take each wheel's radius from its geom",
+    "unloaded wheel radius; unset (or 0): each wheel's cylinder or sphere geom"},
+};
+
+// Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
+static const skidsteerTireFloor kFloors[] = {
+  {"concrete", 0.86, 0.786,
+   "mu_s: mean peak of 180-200 N / 225 N; mu_k: Sec. 4.1 states F_s,min - F_k,min = "
+   "(mu_s,max - mu_k,max) * 0.12 * 225 N ~ 2 N, so mu_k,max = 0.86 - 2/27 = 0.786"},
+  {"tile", 0.86, 0.786,
+   "assumed equal to concrete: no pull test on tile; Sec. 3.2 finds tile and concrete "
+   "behave alike"},
+  {"carpet", 0.98, 0.896,
+   "mu_s: peaks 200-224 N; mu_k: assumed at concrete's ratio mu_k/mu_s = 0.914 (carpet's "
+   "mu_k,min = 0.12 would give mu_k,max = 1.0 > mu_s with concrete's 0.12 slip factor, which "
+   "the law forbids)"},
 };
 #define TIRE_NFLOOR ((int)(sizeof(kFloors) / sizeof(kFloors[0])))
+
+static const skidsteerTireLayout kLayout = {
+  SKIDSTEER_TIRE_CONTRACT_VERSION, TIRE_NDIR, TIRE_NSTATE_DIR, TIRE_DEFLECTION,
+  TIRE_VELOCITY, TIRE_STUCK, 3,
+};
+
+int skidsteer_tire_attributes(const skidsteerTireAttribute** rows) {
+  *rows = kAttributeTable;
+  return TIRE_NATTRIBUTE;
+}
+
+int skidsteer_tire_floors(const skidsteerTireFloor** rows) {
+  *rows = kFloors;
+  return TIRE_NFLOOR;
+}
+
+const skidsteerTireLayout* skidsteer_tire_layout(void) {
+  return &kLayout;
+}
+
+// The attribute names MuJoCo's compiler accepts, and the floor attribute's words
+// and rule: filled from the tables when the library loads.
+static const char* kAttributeNames[TIRE_NATTRIBUTE];
+
+static void fill_tables(void) {
+  for (int i = 0; i < TIRE_NATTRIBUTE; i++) kAttributeNames[i] = kAttributeTable[i].name;
+  kFloorNames[0] = 0;
+  for (int i = 0; i < TIRE_NFLOOR; i++) {
+    if (i) strncat(kFloorNames, " ", sizeof(kFloorNames) - strlen(kFloorNames) - 1);
+    strncat(kFloorNames, kFloors[i].name, sizeof(kFloorNames) - strlen(kFloorNames) - 1);
+  }
+  snprintf(kFloorRule, sizeof(kFloorRule),
+           "use one of %s, or set mu_static and mu_kinetic", kFloorNames);
+}
 
 // ---------------------------------------------------------------- instance data
 
@@ -74,39 +187,6 @@ static const char* instance_name(const mjModel* m, int instance) {
 }
 
 
-// Reads one numeric attribute; returns 0 on success, -1 (after a warning
-// naming the attribute and value) on failure.  `fallback` applies when unset.
-static int read_number(const mjModel* m, int instance, const char* key, mjtNum fallback,
-                       mjtNum* out) {
-  const char* text = mj_getPluginConfig(m, instance, key);
-  if (!text || !text[0]) {
-    *out = fallback;
-    return 0;
-  }
-  char* end = NULL;
-  double value = strtod(text, &end);
-  while (end && (*end == ' ' || *end == '\t')) end++;
-  if (end == text || (end && *end) || isnan(value)) {
-    mju_warning("%s instance '%s': attribute %s=\"%s\" is not a number",
-                TIRE_PLUGIN_NAME, instance_name(m, instance), key, text);
-    return -1;
-  }
-  *out = value;
-  return 0;
-}
-
-
-static int require(int ok, const mjModel* m, int instance, const char* key, mjtNum value,
-                   const char* rule) {
-  if (!ok) {
-    mju_warning("%s instance '%s': attribute %s=\"%g\" is invalid: %s",
-                TIRE_PLUGIN_NAME, instance_name(m, instance), key, value, rule);
-    return -1;
-  }
-  return 0;
-}
-
-
 // Series spring or damper, eq. 4.14 (an infinite tread leaves the belt alone).
 static mjtNum series(mjtNum tread, mjtNum belt) {
   if (isinf(tread)) return belt;
@@ -114,86 +194,104 @@ static mjtNum series(mjtNum tread, mjtNum belt) {
 }
 
 
+// An instance's attributes as read: each number's value, each choice's index
+// into its words.  Unset numbers hold the table's default (NaN: "from floor").
+typedef struct {
+  mjtNum value[TIRE_NATTRIBUTE];
+  int choice[TIRE_NATTRIBUTE];
+} tireConfig;
+
+
+static void invalid(const mjModel* m, int instance, const skidsteerTireAttribute* a,
+                    const char* text, mjtNum value, const char* rule) {
+  if (text && text[0]) {
+    mju_warning("%s instance '%s': attribute %s=\"%s\" is invalid: %s", TIRE_PLUGIN_NAME,
+                instance_name(m, instance), a->name, text, rule);
+  } else {
+    mju_warning("%s instance '%s': attribute %s=\"%g\" is invalid: %s", TIRE_PLUGIN_NAME,
+                instance_name(m, instance), a->name, value, rule);
+  }
+}
+
+
+// The index of `word` among the space-separated `choices`, -1 if absent.
+static int choice_index(const char* choices, const char* word) {
+  size_t n = strlen(word);
+  int index = 0;
+  for (const char* c = choices; *c;) {
+    const char* end = strchr(c, ' ');
+    size_t len = end ? (size_t)(end - c) : strlen(c);
+    if (len == n && !strncmp(c, word, n)) return index;
+    if (!end) break;
+    c = end + 1;
+    index++;
+  }
+  return -1;
+}
+
+
+// Reads and validates every attribute of the table; 0 on success, -1 after a
+// warning naming the instance, attribute, value and rule.
+static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
+  for (int i = 0; i < TIRE_NATTRIBUTE; i++) {
+    const skidsteerTireAttribute* a = &kAttributeTable[i];
+    const char* text = mj_getPluginConfig(m, instance, a->name);
+    int set = text && text[0];
+    if (a->kind == SKIDSTEER_TIRE_CHOICE) {
+      cfg->choice[i] = choice_index(a->choices, set ? text : a->default_text);
+      if (cfg->choice[i] < 0) {
+        mju_warning("%s instance '%s': attribute %s=\"%s\" is unknown: %s", TIRE_PLUGIN_NAME,
+                    instance_name(m, instance), a->name, text, a->rule);
+        return -1;
+      }
+      continue;
+    }
+    cfg->value[i] = a->default_value;
+    if (!set) continue;
+    char* end = NULL;
+    double value = strtod(text, &end);
+    while (end && (*end == ' ' || *end == '\t')) end++;
+    if (end == text || (end && *end) || isnan(value)) {
+      mju_warning("%s instance '%s': attribute %s=\"%s\" is not a number", TIRE_PLUGIN_NAME,
+                  instance_name(m, instance), a->name, text);
+      return -1;
+    }
+    int ok = (a->low_open ? value > a->low : value >= a->low) &&
+             (a->high_open ? value < a->high : value <= a->high) &&
+             (!a->finite || isfinite(value));
+    if (!ok) {
+      invalid(m, instance, a, text, value, a->rule);
+      return -1;
+    }
+    cfg->value[i] = value;
+  }
+  return 0;
+}
+
+
 static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius) {
-  const char* floor = mj_getPluginConfig(m, instance, "floor");
-  const tireFloor* chosen = &kFloors[0];
-  if (floor && floor[0]) {
-    chosen = NULL;
-    for (int i = 0; i < TIRE_NFLOOR; i++) {
-      if (!strcmp(floor, kFloors[i].name)) chosen = &kFloors[i];
-    }
-    if (!chosen) {
-      mju_warning("%s instance '%s': attribute floor=\"%s\" is unknown: "
-                  "use concrete, tile or carpet, or set mu_static and mu_kinetic",
-                  TIRE_PLUGIN_NAME, instance_name(m, instance), floor);
-      return -1;
-    }
-  }
-
-  const char* contact_point = mj_getPluginConfig(m, instance, "contact_point");
-  p->relay = 0;
-  if (contact_point && contact_point[0]) {
-    if (!strcmp(contact_point, "relay")) {
-      p->relay = 1;
-    } else if (strcmp(contact_point, "coulomb")) {
-      mju_warning("%s instance '%s': attribute contact_point=\"%s\" is unknown: "
-                  "use coulomb (default) or relay (eq. 6.4 as the thesis simulated it)",
-                  TIRE_PLUGIN_NAME, instance_name(m, instance), contact_point);
-      return -1;
-    }
-  }
-
-  mjtNum belt_stiffness, belt_damping, tread_stiffness, tread_damping;
-  if (read_number(m, instance, "mu_static", chosen->mu_static, &p->mu_static) ||
-      read_number(m, instance, "mu_kinetic", chosen->mu_kinetic, &p->mu_kinetic) ||
-      read_number(m, instance, "stiffness_z", 80000, &p->stiffness_z) ||
-      read_number(m, instance, "damping_z", 70, &p->damping_z) ||
-      read_number(m, instance, "stiffness_y", 18000, &p->stiffness_y) ||
-      read_number(m, instance, "damping_y", 30, &p->damping_y) ||
-      read_number(m, instance, "belt_stiffness", 3000, &belt_stiffness) ||
-      read_number(m, instance, "belt_damping", 50, &belt_damping) ||
-      read_number(m, instance, "tread_stiffness_x", INFINITY, &tread_stiffness) ||
-      read_number(m, instance, "tread_damping_x", INFINITY, &tread_damping) ||
-      read_number(m, instance, "contact_mass", 0.035, &p->contact_mass) ||
-      read_number(m, instance, "lambda_max", 0.1, &p->lambda_max) ||
-      read_number(m, instance, "radius", 0, radius)) {
+  tireConfig cfg;
+  if (read_config(m, instance, &cfg)) return -1;
+  const skidsteerTireFloor* floor = &kFloors[cfg.choice[ATTR_FLOOR]];
+  p->mu_static = isnan(cfg.value[ATTR_MU_STATIC]) ? floor->mu_static : cfg.value[ATTR_MU_STATIC];
+  p->mu_kinetic =
+      isnan(cfg.value[ATTR_MU_KINETIC]) ? floor->mu_kinetic : cfg.value[ATTR_MU_KINETIC];
+  if (p->mu_kinetic > p->mu_static) {
+    invalid(m, instance, &kAttributeTable[ATTR_MU_KINETIC],
+            mj_getPluginConfig(m, instance, "mu_kinetic"), p->mu_kinetic,
+            "must not exceed mu_static (kinetic friction above static friction)");
     return -1;
   }
-
-  const char* positive = "must be a finite number > 0";
-  const char* nonnegative = "must be a finite number >= 0";
-  if (require(isfinite(p->mu_static) && p->mu_static > 0, m, instance, "mu_static",
-              p->mu_static, positive) ||
-      require(isfinite(p->mu_kinetic) && p->mu_kinetic >= 0, m, instance, "mu_kinetic",
-              p->mu_kinetic, nonnegative) ||
-      require(p->mu_kinetic <= p->mu_static, m, instance, "mu_kinetic", p->mu_kinetic,
-              "must not exceed mu_static (kinetic friction above static friction)") ||
-      require(isfinite(p->stiffness_z) && p->stiffness_z > 0, m, instance, "stiffness_z",
-              p->stiffness_z, positive) ||
-      require(isfinite(p->damping_z) && p->damping_z >= 0, m, instance, "damping_z",
-              p->damping_z, nonnegative) ||
-      require(isfinite(p->stiffness_y) && p->stiffness_y > 0, m, instance, "stiffness_y",
-              p->stiffness_y, positive) ||
-      require(isfinite(p->damping_y) && p->damping_y >= 0, m, instance, "damping_y",
-              p->damping_y, nonnegative) ||
-      require(isfinite(belt_stiffness) && belt_stiffness > 0, m, instance, "belt_stiffness",
-              belt_stiffness, positive) ||
-      require(isfinite(belt_damping) && belt_damping >= 0, m, instance, "belt_damping",
-              belt_damping, nonnegative) ||
-      require(tread_stiffness > 0, m, instance, "tread_stiffness_x", tread_stiffness,
-              "must be > 0 (inf: rigid tread, the thesis's K_tx >> K_belt)") ||
-      require(tread_damping > 0, m, instance, "tread_damping_x", tread_damping,
-              "must be > 0 (inf: the thesis's D_tx >> D_belt)") ||
-      require(isfinite(p->contact_mass) && p->contact_mass > 0, m, instance, "contact_mass",
-              p->contact_mass, positive) ||
-      require(isfinite(p->lambda_max) && p->lambda_max > 0 && p->lambda_max <= 1, m, instance,
-              "lambda_max", p->lambda_max, "must lie in (0, 1]") ||
-      require(isfinite(*radius) && *radius >= 0, m, instance, "radius", *radius,
-              "must be > 0, or unset to take each wheel's radius from its geom")) {
-    return -1;
-  }
-  p->stiffness_x = series(tread_stiffness, belt_stiffness);
-  p->damping_x = series(tread_damping, belt_damping);
+  p->stiffness_z = cfg.value[ATTR_STIFFNESS_Z];
+  p->damping_z = cfg.value[ATTR_DAMPING_Z];
+  p->stiffness_y = cfg.value[ATTR_STIFFNESS_Y];
+  p->damping_y = cfg.value[ATTR_DAMPING_Y];
+  p->stiffness_x = series(cfg.value[ATTR_TREAD_STIFFNESS_X], cfg.value[ATTR_BELT_STIFFNESS]);
+  p->damping_x = series(cfg.value[ATTR_TREAD_DAMPING_X], cfg.value[ATTR_BELT_DAMPING]);
+  p->contact_mass = cfg.value[ATTR_CONTACT_MASS];
+  p->lambda_max = cfg.value[ATTR_LAMBDA_MAX];
+  p->relay = cfg.choice[ATTR_CONTACT_POINT] == 1;
+  *radius = cfg.value[ATTR_RADIUS];
   return 0;
 }
 
@@ -504,8 +602,9 @@ mjPLUGIN_LIB_INIT(skidsteer_tire) {
   plugin.name = TIRE_PLUGIN_NAME;
   plugin.capabilityflags = mjPLUGIN_PASSIVE | mjPLUGIN_SENSOR;
   plugin.needstage = mjSTAGE_VEL;
+  fill_tables();
   plugin.nattribute = TIRE_NATTRIBUTE;
-  plugin.attributes = kAttributes;
+  plugin.attributes = kAttributeNames;
   plugin.nstate = tire_nstate;
   plugin.nsensordata = tire_nsensordata;
   plugin.init = tire_init;

@@ -1,14 +1,23 @@
-"""skidsteer: the extended Pioneer 3-AT of Mafrica (2012) in MuJoCo.
+"""skidsteer: skid-steer robot vibrations in MuJoCo, held against measured data.
 
 Importing the package registers the ``skidsteer.tire`` engine plugin, after
-which ``mujoco.MjModel.from_xml_path("models/pioneer3at_extended.xml")`` works.
+which ``mujoco.MjModel.from_xml_path("models/pioneer3at/pioneer3at_extended.xml")``
+works.  The package is organised by stage (docs/architecture.md): robot ->
+simulation -> data -> features -> diagnosis -> reports, plus experiments (the
+thesis's rigs) and tasks (dm-control).
 """
 
-from skidsteer._plugin import PLUGIN_NAME, register as _register
+from skidsteer.robot.plugin import PLUGIN_NAME, register as _register
 
 _register()
 
-from skidsteer.models import FLOORS, BUILDS, load_model, model_path  # noqa: E402
+from skidsteer.version import __version__  # noqa: E402
+from skidsteer.robot import (DEFAULT_ROBOT, Setup, load_model, load_robot,  # noqa: E402
+                             model_path)
 
-__all__ = ["PLUGIN_NAME", "FLOORS", "BUILDS", "load_model", "model_path"]
-__version__ = "0.1.0"
+_DEFAULT = load_robot(DEFAULT_ROBOT)
+BUILDS: tuple[str, ...] = tuple(_DEFAULT.builds)  # the default robot's builds
+FLOORS: tuple[str, ...] = tuple(_DEFAULT.floors)  # and its floors
+
+__all__ = ["__version__", "PLUGIN_NAME", "BUILDS", "DEFAULT_ROBOT", "FLOORS", "Setup", "load_model",
+           "load_robot", "model_path"]

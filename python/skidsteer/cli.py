@@ -1,4 +1,10 @@
-"""The skidsteer command line."""
+"""The skidsteer command line.
+
+Every command that simulates takes the robot (``--model``: a robot's name, its
+folder, or an MJCF file), the build (``--build``) and the floor (``--floor``);
+the dataset commands read docs/data-format.md.  ``--config`` and ``--surface``,
+the names of earlier releases, still work and say what replaced them.
+"""
 
 from __future__ import annotations
 
@@ -9,17 +15,98 @@ import sys
 import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
+
+from skidsteer.data.dataset import run_file_name
+from skidsteer.data.files import write_atomically
+from skidsteer.data.recording import DataError, write_run
+from skidsteer.experiments.free_response import FREE_RESPONSE_AXES, free_response
+from skidsteer.experiments.pull import pull
+from skidsteer.experiments.rest import tire_loads
+from skidsteer.experiments.straight import straight
+from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
+from skidsteer.experiments.swivel import run_swivel, swivel_summary
+from skidsteer.reports.analysis import analyze_paths
+from skidsteer.reports.diagnosis import compare, diagnose
+from skidsteer.reports.reproduction import reproduce
+from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
+                             robot_names)
+from skidsteer.simulation.backends import BACKENDS, BackendUnavailable, make_backend
+
+DATA_FORMAT = "docs/data-format.md"  # the dataset layout the readers accept
+DEFAULT = load_robot(DEFAULT_ROBOT)
 
 
 def _print_json(data: dict) -> None:
     print(json.dumps(data, indent=2))
 
 
-def _add_backend_options(p: argparse.ArgumentParser) -> None:
-    from skidsteer.backends import BACKENDS
+# ------------------------------------------------------------------ options
 
+class _Deprecated(argparse.Action):
+    """An option of an earlier release: stores into the new option's dest and says so."""
+
+    def __init__(self, option_strings, dest, replacement: str, append: bool = False,
+                 **kwargs):
+        self.replacement, self.append = replacement, append
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"skidsteer: {option_string} is deprecated, use {self.replacement}",
+              file=sys.stderr)
+        if self.append:
+            setattr(namespace, self.dest, (getattr(namespace, self.dest, None) or []) + [values])
+        else:
+            setattr(namespace, self.dest, values)
+
+
+def _add_build_floor(p: argparse.ArgumentParser, build: str | None = "extended",
+                     floor: str | None = "concrete", repeat: bool = False) -> None:
+    """--build and --floor (of the default robot; any name of --model's robot is checked
+    when the model loads), with their deprecated aliases --config and --surface."""
+    action = "append" if repeat else "store"
+    extra = " (repeatable)" if repeat else ""
+    p.add_argument("--build", action=action, default=None if repeat else build,
+                   help=f"the robot's build{extra}; {DEFAULT.name}: "
+                        f"{', '.join(DEFAULT.builds)} (default {build or 'all'})")
+    p.add_argument("--floor", action=action, default=None if repeat else floor,
+                   help=f"the floor{extra}; {DEFAULT.name}: {', '.join(DEFAULT.floors)} "
+                        f"(default {floor or 'all'})")
+    p.add_argument("--config", dest="build", action=_Deprecated, replacement="--build",
+                   append=repeat, help=argparse.SUPPRESS)
+    p.add_argument("--surface", dest="floor", action=_Deprecated, replacement="--floor",
+                   append=repeat, help=argparse.SUPPRESS)
+
+
+def _add_model(p: argparse.ArgumentParser, default=DEFAULT_ROBOT) -> None:
+    p.add_argument("--model", default=default,
+                   help=f"the robot: a name ({', '.join(robot_names())}), a folder with a "
+                        "robot.toml, or an MJCF .xml file")
+
+
+def _add_variant(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--variant", default=BASE_VARIANT,
+                   help=f"{BASE_VARIANT} (the model as written) or one of the robot's "
+                        f"variants ({DEFAULT.name}: thesis = the thesis's model as published, "
+                        "eq. 5.10 inertia and eq. 6.4 contact point)")
+
+
+def _add_timestep(p: argparse.ArgumentParser, default=None, what="the model's") -> None:
+    p.add_argument("--timestep", type=_positive, default=default, metavar="DT",
+                   help=f"simulation time step, s (default: {what})")
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def _add_backend_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threads", type=int, default=2, help="threads of the local backend")
     p.add_argument("--backend", choices=BACKENDS, default="local",
                    help="where the runs step: threads on this machine, or one Ray task per "
@@ -32,8 +119,6 @@ def _add_backend_options(p: argparse.ArgumentParser) -> None:
 
 @contextlib.contextmanager
 def _backend(args: argparse.Namespace):
-    from skidsteer.backends import make_backend
-
     backend = make_backend(args.backend, nthread=args.threads, address=args.address)
     try:
         yield backend
@@ -41,22 +126,27 @@ def _backend(args: argparse.Namespace):
         backend.close()
 
 
-def cmd_swivel(args: argparse.Namespace) -> int:
-    from skidsteer.experiments import swivel, swivel_summary
-    from skidsteer.measured import write_run
-    from skidsteer.sweep import run_file_name
+def _setup(args: argparse.Namespace, **fields) -> Setup:
+    values = {"robot": args.model, "build": args.build, "floor": args.floor,
+              "variant": getattr(args, "variant", BASE_VARIANT)}
+    values.update(fields)
+    return Setup(**values)
 
+
+# ------------------------------------------------------------------ commands
+
+def cmd_swivel(args: argparse.Namespace) -> int:
+    setup = _setup(args, mount=args.mount)
     started = time.perf_counter()
-    run = swivel(args.omega, args.surface, args.duration, config=args.config,
-                 mount=args.mount, variant=args.variant, settle_s=args.settle)
+    run = run_swivel(args.omega, setup, args.duration, args.settle, args.timestep)
     wall = time.perf_counter() - started
     out = Path(args.out) if args.out else Path("out") / run_file_name(
-        0, args.omega, args.duration, args.config, args.surface, args.mount)
+        0, args.omega, args.duration, setup)
     time_s, accel = run.accelerometer_log()
     write_run(out, time_s, accel)
-    command = {"v_mps": 0.0, "omega_deg_s": args.omega, "surface": args.surface,
-               "config": args.config, "mount": args.mount, "variant": args.variant,
-               "duration_s": args.duration}
+    command = {"v_mps": 0.0, "omega_deg_s": args.omega, "robot": args.model,
+               "build": args.build, "floor": args.floor, "mount": args.mount,
+               "variant": args.variant, "duration_s": args.duration}
     summary = swivel_summary(run, command)
     features = summary["features"]
     summary.update({
@@ -68,8 +158,8 @@ def cmd_swivel(args: argparse.Namespace) -> int:
     if args.json:
         _print_json(summary)
         return 0
-    print(f"swivel in place at {args.omega:g} deg/s on {args.surface} "
-          f"({args.config} build, {args.variant} model, cube on the {args.mount}, "
+    print(f"swivel in place at {args.omega:g} deg/s on {args.floor} "
+          f"({args.build} build, {args.variant} model, cube on the {args.mount}, "
           f"{args.duration:g} s simulated in {wall:.1f} s)")
     print(f"  mean yaw rate        {summary['mean_yaw_rate_deg_s']:.2f} deg/s")
     print(f"  wheel-lift fraction  {summary['wheel_lift_fraction']:.3f}")
@@ -87,10 +177,7 @@ def cmd_swivel(args: argparse.Namespace) -> int:
 
 
 def cmd_free_response(args: argparse.Namespace) -> int:
-    from skidsteer.experiments import free_response
-
-    result = free_response(args.axis, config=args.config, surface=args.surface,
-                           variant=args.variant)
+    result = free_response(args.axis, _setup(args), timestep=args.timestep)
     if args.json:
         _print_json(result)
     else:
@@ -101,14 +188,9 @@ def cmd_free_response(args: argparse.Namespace) -> int:
 
 
 def cmd_pull(args: argparse.Namespace) -> int:
-    from skidsteer.experiments import pull
-
     result = pull(args.direction, args.height, args.wheels, args.slip_velocity,
-                  config=args.config, surface=args.surface, variant=args.variant,
-                  distance_m=args.distance)
+                  setup=_setup(args), distance_m=args.distance)
     if args.out:
-        from skidsteer.datafiles import write_atomically
-
         trace = np.column_stack([result["trace"]["travel_m"], result["trace"]["force_N"]])
         write_atomically(Path(args.out), lambda tmp: np.savetxt(
             tmp, trace, delimiter=",", header="travel_m,force_N", comments="",
@@ -118,7 +200,7 @@ def cmd_pull(args: argparse.Namespace) -> int:
         return 0
     fmt = lambda x, spec: "n/a" if x is None else format(x, spec)  # noqa: E731
     print(f"{args.direction} pull at {args.height:g} m, wheels {args.wheels} "
-          f"({args.config} on {args.surface}, sum N = {result['normal_force_sum_N']:.1f} N)")
+          f"({args.build} on {args.floor}, sum N = {result['normal_force_sum_N']:.1f} N)")
     print(f"  first peak {fmt(result['first_peak_N'], '.1f')} N, max {result['max_force_N']:.1f} N, "
           f"{result['teeth']} teeth, ramp slope {fmt(result['ramp_slope_N_per_m'], '.0f')} N/m, "
           f"steady {result['steady_force_N']:.1f} N")
@@ -126,10 +208,7 @@ def cmd_pull(args: argparse.Namespace) -> int:
 
 
 def cmd_straight(args: argparse.Namespace) -> int:
-    from skidsteer.experiments import straight
-
-    result = straight(args.speed, args.duration, config=args.config, surface=args.surface,
-                      variant=args.variant)
+    result = straight(args.speed, args.duration, setup=_setup(args))
     if args.json:
         _print_json(result)
     else:
@@ -139,13 +218,11 @@ def cmd_straight(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from skidsteer.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
-
     omegas = args.omega or list(THESIS_OMEGAS_DEG_S)
-    runs = plan(omegas, args.surface or ["concrete", "tile", "carpet"],
-                args.config or ["extended"], trials=args.trials, duration_s=args.duration,
-                mount=args.mount, variant=args.variant, suffix="." + args.format,
-                seed=args.seed)
+    runs = plan(omegas, args.floor or ["concrete", "tile", "carpet"], args.build or ["extended"],
+                trials=args.trials, duration_s=args.duration, mount=args.mount,
+                variant=args.variant, suffix="." + args.format, seed=args.seed,
+                robot=args.model)
     started = time.perf_counter()
     with _backend(args) as backend:
         run_sweep(Path(args.out), runs, progress=not args.quiet, backend=backend)
@@ -154,9 +231,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from skidsteer.analysis import analyze_paths
-
-    result = analyze_paths(args.path, args.out, figures=not args.no_figures)
+    result = analyze_paths(args.path, args.out, figures=not args.no_figures, robot=args.model)
     if args.json:
         _print_json(result)
     else:
@@ -168,8 +243,6 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from skidsteer.report import reproduce
-
     with _backend(args) as backend:
         report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
                            progress=not args.quiet, backend=backend)
@@ -177,43 +250,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def tire_loads(build: str = "extended", surface: str = "concrete",
-               settle_s: float = 3.0) -> dict:
-    """Normal forces of the robot at rest and the split eq. 2.24 predicts."""
-    from skidsteer.models import load_model
-    from skidsteer.simulation import sensor_slice, settle
-    from skidsteer.tire_reference import find_wheels
-
-    m = load_model(build, surface)
-    d = mujoco.MjData(m)
-    settle(m, d, settle_s)
-    mujoco.mj_forward(m, d)
-    normal = d.sensordata[sensor_slice(m, "tire_forces")].reshape(-1, 3)[:, 0]
-    wheels = find_wheels(m)
-    root = int(m.body_rootid[wheels[0].body])  # the robot's free body
-    mass = float(m.body_subtreemass[root])
-    weight = mass * float(np.linalg.norm(m.opt.gravity))
-    # eq. 2.24 from the compiled geometry: a, b from the CoM to the axles
-    com_x = float(d.subtree_com[root] @ d.xmat[root].reshape(3, 3)[:, 0])
-    wheel_x = np.array([d.xpos[w.body] @ d.xmat[root].reshape(3, 3)[:, 0] for w in wheels])
-    a = com_x - wheel_x.min()
-    b = wheel_x.max() - com_x
-    rear = wheel_x < com_x
-    expected = np.where(rear, b / (2 * (a + b)), a / (2 * (a + b))) * weight
-    return {
-        "build": build, "surface": surface,
-        "wheels": [m.body(w.body).name for w in wheels],
-        "normal_forces_N": normal.tolist(),
-        "sum_N": float(normal.sum()),
-        "weight_N": weight,
-        "sum_over_weight": float(normal.sum() / weight),
-        "eq_2_24_N": expected.tolist(),
-        "relative_error_vs_eq_2_24": ((normal - expected) / expected).tolist(),
-    }
-
-
 def cmd_tire_loads(args: argparse.Namespace) -> int:
-    result = tire_loads(args.config, args.surface)
+    result = tire_loads(_setup(args))
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -227,8 +265,6 @@ def cmd_tire_loads(args: argparse.Namespace) -> int:
 def _run_on_dataset(func, args: argparse.Namespace, **extra):
     """(result, exit code): func(dataset, out, ...) with the dataset commands' options;
     a bad dataset is a message naming it and exit code 2."""
-    from skidsteer.measured import DataError
-
     try:
         with _backend(args) as backend:
             result = func(args.dataset, args.out, model=args.model,
@@ -244,8 +280,6 @@ def _run_on_dataset(func, args: argparse.Namespace, **extra):
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from skidsteer.diagnosis import compare
-
     result, code = _run_on_dataset(compare, args)
     if result is None:
         return code
@@ -260,8 +294,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    from skidsteer.diagnosis import diagnose
-
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
                                    cache_dir=args.cache)
     if result is None:
@@ -287,14 +319,25 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    from skidsteer.viewer import launch
+    from skidsteer.simulation.viewer import launch  # opens a window: only when asked
 
-    launch(args.model, args.surface)
+    target = args.target
+    if target.lower().endswith(".xml") or "/" in target:
+        setup = Setup(robot=target, floor=args.floor)
+    elif target in load_robot(args.model).builds:
+        setup = Setup(robot=args.model, build=target, floor=args.floor)
+    elif target in robot_names():
+        setup = Setup(robot=target, floor=args.floor)
+    else:
+        raise ValueError(f"unknown model {target!r}: use a build of {args.model} "
+                         f"({', '.join(load_robot(args.model).builds)}), a robot "
+                         f"({', '.join(robot_names())}) or an MJCF .xml file")
+    launch(setup)
     return 0
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from skidsteer.video import render_swivel
+    from skidsteer.tasks.video import render_swivel  # dm_control and OpenGL: only here
 
     result = render_swivel(task=args.task, omega_deg_s=args.omega, seconds=args.seconds,
                            out=args.out, width=args.width, height=args.height, fps=args.fps,
@@ -304,34 +347,38 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from skidsteer.measured import MOUNTS
-    from skidsteer.models import BUILDS, FLOORS, VARIANTS
+# ------------------------------------------------------------------ the parser
 
-    parser = argparse.ArgumentParser(prog="skidsteer", description=__doc__)
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="skidsteer", description=__doc__.split("\n\n")[0],
+        epilog=f"Datasets (analyze, compare, diagnose): the layout is specified in "
+               f"{DATA_FORMAT} of the skidsteer repository.")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    def common(p, config="extended", variant=True):
-        p.add_argument("--config", choices=sorted(BUILDS), default=config,
-                       help="robot build: extended (mast, laptop, camera) or platform")
-        p.add_argument("--surface", choices=FLOORS, default="concrete")
+    def common(p, build="extended", variant=True, json_output=True):
+        _add_model(p)
+        _add_build_floor(p, build)
         if variant:
-            p.add_argument("--variant", choices=VARIANTS, default="ours",
-                           help="ours, or the thesis's model as published (eq. 5.10, 6.4)")
-        p.add_argument("--json", action="store_true", help="print the result as JSON")
+            _add_variant(p)
+        if json_output:
+            p.add_argument("--json", action="store_true", help="print the result as JSON")
 
     p = sub.add_parser("swivel", help="swivel in place and write the accelerometer log")
     p.add_argument("--omega", type=float, default=30.0, help="commanded yaw rate, deg/s")
     p.add_argument("--duration", type=float, default=20.0, help="recorded time, s")
     p.add_argument("--settle", type=float, default=2.0, help="settling time before, s")
-    p.add_argument("--mount", choices=MOUNTS, default="platform",
-                   help="accelerometer cube on the platform (p_a) or on wheel 1")
-    p.add_argument("--out", help="accelerometer log, .csv or LabVIEW .xlsx (measured-data layout)")
+    p.add_argument("--mount", default=PLATFORM_MOUNT,
+                   help="where the accelerometer is: platform (where the model puts it) or "
+                        f"one of the robot's mounts ({DEFAULT.name}: wheel, on wheel 1)")
+    p.add_argument("--out", help=f"accelerometer log, .csv or LabVIEW .xlsx ({DATA_FORMAT})")
+    _add_timestep(p)
     common(p)
     p.set_defaults(func=cmd_swivel)
 
     p = sub.add_parser("free-response", help="release and ring down (Sec. 5.2, 6.2)")
-    p.add_argument("--axis", choices=("roll", "pitch", "yaw"), default="roll")
+    p.add_argument("--axis", choices=tuple(FREE_RESPONSE_AXES), default="roll")
+    _add_timestep(p, 1e-5, "1e-5, where the decay converges")
     common(p)
     p.set_defaults(func=cmd_free_response)
 
@@ -343,7 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wheel slip velocity r*omega when spinning, m/s")
     p.add_argument("--distance", type=float, default=None, help="machine travel, m")
     p.add_argument("--out", help="force-distance trace CSV")
-    common(p, config="platform")
+    common(p, build="platform")
     p.set_defaults(func=cmd_pull)
 
     p = sub.add_parser("straight", help="straight line at constant speed (Fig. 6.8)")
@@ -356,11 +403,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="dataset directory (runs.csv + one file per run)")
     p.add_argument("--omega", type=float, action="append",
                    help="deg/s, repeatable (default: the thesis's 2, 4, ..., 64)")
-    p.add_argument("--surface", choices=FLOORS, action="append", help="repeatable (default: all)")
-    p.add_argument("--config", choices=sorted(BUILDS), action="append",
-                   help="repeatable (default: extended)")
-    p.add_argument("--mount", choices=MOUNTS, default="platform")
-    p.add_argument("--variant", choices=VARIANTS, default="ours")
+    _add_model(p)
+    _add_build_floor(p, None, None, repeat=True)
+    p.add_argument("--mount", default=PLATFORM_MOUNT)
+    _add_variant(p)
     p.add_argument("--trials", type=int, default=1, help="repeats per command (seeded)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=float, default=20.0)
@@ -370,8 +416,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("analyze", help="the thesis's Appendix A analysis of runs or a dataset")
-    p.add_argument("path", help="a run file (.csv/.xlsx) or a dataset directory")
-    p.add_argument("--out", required=True, help="directory for features.json and figures")
+    p.add_argument("path", help=f"a run file (.csv/.xlsx) or a dataset directory ({DATA_FORMAT})")
+    p.add_argument("--out", required=True, help="directory for analysis.json and figures")
+    _add_model(p)
     p.add_argument("--no-figures", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_analyze)
@@ -384,9 +431,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("tire-loads", help="normal forces of the robot at rest")
-    p.add_argument("--config", choices=sorted(BUILDS), default="extended")
-    p.add_argument("--surface", choices=FLOORS, default="concrete")
-    p.add_argument("--json", action="store_true")
+    common(p, variant=False)
     p.set_defaults(func=cmd_tire_loads)
 
     for name, func, text in (
@@ -394,10 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
             ("diagnose", cmd_diagnose, "name the cause of a dataset's discrepancies, fit it, "
                                        "measure the gain")):
         p = sub.add_parser(name, help=text)
-        p.add_argument("dataset", help="dataset directory (../shared/spec/measured-data.md)")
+        p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})")
         p.add_argument("--out", default=f"{name}-out", help="output directory")
-        p.add_argument("--model", default=None,
-                       help="your robot's MJCF file (default: the built-in build of each run)")
+        _add_model(p, default=None)
         if name == "diagnose":
             p.add_argument("--cause", action="append",
                            help="fit only this candidate (repeatable; default: all)")
@@ -405,7 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
                            help="keep finished simulations here (default: OUT/.skidsteer-cache)"
                                 "; a rerun resumes from them, and diagnoses of several datasets "
                                 "of one robot can share one")
-        p.add_argument("--timestep", type=float, default=None, help="simulation time step, s")
+        _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")
         p.add_argument("--no-figures", action="store_true")
@@ -413,9 +457,12 @@ def build_parser() -> argparse.ArgumentParser:
         p.set_defaults(func=func)
 
     p = sub.add_parser("view", help="open a model in MuJoCo's interactive viewer")
-    p.add_argument("model", nargs="?", default="extended",
-                   help="extended, platform or a path to an MJCF file")
-    p.add_argument("--surface", choices=FLOORS, default=None)
+    p.add_argument("target", nargs="?", default=DEFAULT.default_build,
+                   help="a build of --model's robot, a robot's name, or an MJCF file")
+    _add_model(p)
+    p.add_argument("--floor", default=None, help="the floor (default: as the MJCF has it)")
+    p.add_argument("--surface", dest="floor", action=_Deprecated, replacement="--floor",
+                   help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("render", help="video (.mp4) and still (.png) of the feed-forward swivel "
@@ -425,8 +472,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="commanded yaw rate, deg/s (|omega| in [2, 64], the thesis's range)")
     p.add_argument("--out", default="swivel.mp4", help="video file (.mp4); the still is .png")
     p.add_argument("--seconds", type=float, default=5.0, help="simulated and video time, s")
-    p.add_argument("--floor", choices=FLOORS, default="concrete")
-    p.add_argument("--build", choices=sorted(BUILDS), default="extended")
+    _add_build_floor(p)
     p.add_argument("--width", type=int, default=640, help="pixels, even, <= 1280")
     p.add_argument("--height", type=int, default=360, help="pixels, even, <= 720")
     p.add_argument("--fps", type=float, default=25.0, help="frames per second, <= 100")
@@ -435,12 +481,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _check_names(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """--build, --floor, --variant and --mount against the robot's, as argparse checks
+    choices (the robot is known only once --model is parsed)."""
+    try:
+        robot = load_robot(args.model) if getattr(args, "model", None) else DEFAULT
+    except (ValueError, FileNotFoundError) as err:
+        parser.error(f"argument --model: {err}")
+    allowed = {"build": tuple(robot.builds) if robot.single_file is None else None,
+               "floor": tuple(robot.floors), "variant": robot.variant_names,
+               "mount": (PLATFORM_MOUNT, *robot.mounts)}
+    for option, choices in allowed.items():
+        values = getattr(args, option, None)
+        for value in (values if isinstance(values, list) else [values]):
+            if value is not None and choices is not None and value not in choices:
+                parser.error(f"argument --{option}: invalid choice: {value!r} (choose from "
+                             f"{', '.join(map(repr, choices))})")
+
+
 def main(argv: list[str] | None = None) -> int:
-    import skidsteer  # noqa: F401  (registers the plugin)
-
-    from skidsteer.backends import BackendUnavailable
-
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _check_names(parser, args)
     try:
         return args.func(args)
     except (ValueError, FileNotFoundError, BackendUnavailable) as error:

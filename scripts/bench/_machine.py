@@ -26,7 +26,7 @@ def loadavg() -> list[float] | None:
 
 def save_results(path, benchmark: str, **fields) -> None:
     """A benchmark's results as strict JSON, written atomically, with the machine."""
-    from skidsteer.diagnosis_report import write_json
+    from skidsteer.data.files import write_json
 
     write_json(Path(path), {"benchmark": benchmark, "machine": machine(),
                             "cpu_count": os.cpu_count(), **fields})

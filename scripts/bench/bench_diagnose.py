@@ -18,8 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import skidsteer  # noqa: E402,F401
 from make_sample_dataset import RECIPE  # noqa: E402
-from skidsteer.diagnosis import diagnose  # noqa: E402
-from skidsteer.synth import make_dataset  # noqa: E402
+from skidsteer.diagnosis.synth import make_dataset  # noqa: E402
+from skidsteer.reports.diagnosis import diagnose  # noqa: E402
+from skidsteer.robot import Setup  # noqa: E402
 from _machine import loadavg, machine, save_results  # noqa: E402
 
 TARGET_S = 600.0  # issue 4: within 10 minutes on the project's 2-core machine
@@ -32,6 +33,7 @@ def main() -> None:
     args = parser.parse_args()
     load_before = loadavg()
     recipe = {**RECIPE, "duration_s": 20.0, "file_format": "xlsx"}
+    recipe["setup"] = Setup(build=recipe.pop("build"), floor=recipe.pop("floor"))
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "data"
         t0 = time.perf_counter()

@@ -42,9 +42,8 @@ import mujoco.rollout
 import numpy as np
 
 import skidsteer
-from skidsteer.models import tire_instance
+from skidsteer.robot import tire
 from skidsteer.simulation import FULLPHYSICS, DriveGeometry, get_state, sensor_slice, settle
-from skidsteer.tire_reference import FLOOR_FRICTION
 from _machine import loadavg, machine, save_results
 
 TARGET_RATIO = 1.25  # issue 6: plugin <= 1.25 x native
@@ -57,13 +56,13 @@ def _remove_tire_plugin(spec: mujoco.MjSpec) -> None:
         ref = spec.body(name).plugin
         ref.active = False
         ref.name = ""
-    spec.delete(tire_instance(spec))
+    spec.delete(tire.instance(spec))
 
 
 def native_edit(spec: mujoco.MjSpec) -> None:
     """The robot on MuJoCo's own contacts: the wheel cylinders collide with the floor."""
     _remove_tire_plugin(spec)
-    mu = FLOOR_FRICTION["concrete"][0]  # mu_static, the plugin's concrete
+    mu = tire.floors()["concrete"].mu_static  # the plugin's concrete
     for name in WHEELS:
         for geom in spec.body(name).geoms:
             geom.contype = 1

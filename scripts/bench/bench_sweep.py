@@ -4,9 +4,9 @@ local and Ray results identical for the same seeds).
 
 The sweep is Sec. 3.2's grid: 3 floors (concrete, tile, carpet) x omega* 2, 4, ..., 64
 deg/s x one 20 s swivel of the extended robot = 96 runs.  It runs through the
-package's own machinery, exactly as `skidsteer sweep` does: skidsteer.sweep.plan +
-skidsteer.sweep.run_sweep, which builds and settles (2 s) each floor's model once
-and runs one task per run on the backend (skidsteer.backends), writing each run as
+package's own machinery, exactly as `skidsteer sweep` does: experiments.sweep.plan +
+experiments.sweep.run_sweep, which builds and settles (2 s) each floor's model once
+and runs one task per run on the backend (simulation.backends), writing each run as
 a 1 kHz CSV (anti-aliased decimation) into a temporary dataset directory, deleted
 afterwards.  Each backend starts from an empty directory.
 
@@ -33,9 +33,9 @@ from pathlib import Path
 
 
 import skidsteer  # noqa: F401  (registers the plugin)
-import skidsteer.sweep as sweep
-from skidsteer.backends import make_backend
-from skidsteer.models import FLOORS
+from skidsteer import FLOORS
+from skidsteer.experiments import sweep
+from skidsteer.simulation.backends import make_backend
 from _machine import loadavg, machine, save_results
 
 TARGET_S = 120.0  # issue 6: within 2 minutes on this 2-core machine

@@ -67,11 +67,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/
 
 import skidsteer  # noqa: E402
-from skidsteer.analysis import (FREE_RESPONSE_SAMPLES, free_response_features,  # noqa: E402
-                                swivel_features)
 from skidsteer.experiments import FREE_RESPONSE_AXES, release  # noqa: E402
-from skidsteer.simulation import (LOG_RATE_HZ, decimate, rollout,  # noqa: E402
-                                  run_commanded, sensor_slice, set_state, settle)
+from skidsteer.features.extract import (FREE_RESPONSE_SAMPLES,  # noqa: E402
+                                        free_response_features, swivel_features)
+from skidsteer.features.signals import decimate  # noqa: E402
+from skidsteer.simulation import (LOG_RATE_HZ, rollout, run_commanded,  # noqa: E402
+                                  sensor_slice, set_state, settle)
 from timestep_study import AMPLITUDE_FLOOR, BAND_RMS_FLOOR, unstable_reason  # noqa: E402
 from _machine import loadavg, machine, save_results
 

@@ -1,6 +1,6 @@
 """Writes the malformed-dataset corpus (issue 7): tests/malformed/dataset/ and expected.json.
 
-One dataset directory in the measured-data layout (../shared/spec/measured-data.md)
+One dataset directory in the data format (docs/data-format.md)
 whose runs.csv describes three good runs and every kind of bad input a user
 has fed us or could: bad run files (empty, missing or extra sheets, text in
 numeric cells, NaN, non-monotonic or non-uniform time, truncated, saturated,
@@ -27,8 +27,9 @@ sys.path.insert(0, str(HERE.parent))  # tests/: the file builders of test_measur
 
 import numpy as np  # noqa: E402
 
-from skidsteer import measured as m  # noqa: E402
-from skidsteer.measured import RunInfo  # noqa: E402
+from skidsteer.data import recording as m  # noqa: E402
+from skidsteer.data.dataset import RunInfo, write_runs_csv  # noqa: E402
+from skidsteer.robot import Setup  # noqa: E402
 from test_measured import BAD_RUNS, signal, write_csv, write_xlsx  # noqa: E402
 
 # BAD_RUNS cases (tests/test_measured.py) -> the file name they get in the corpus
@@ -94,20 +95,21 @@ def xlsx_in_m_s2(path: Path) -> Path:
 NEW = {
     "truncated.csv": (truncated_csv, ["truncated.csv", "row 2052: 2 fields, expected 4"]),
     "truncated.xlsx": (truncated_xlsx, ["truncated.xlsx", "not a readable .xlsx file"]),
-    "in_g.csv": (in_g, ["in_g.csv", "columns ax, ay, az", "mean acceleration is 1",
+    "in_g.csv": (in_g, ["in_g.csv", "columns ax, ay, az", "acceleration's magnitude is 1.0",
                         "wrong units"]),
-    "in_mm_per_s2.csv": (in_mm_per_s2, ["in_mm_per_s2.csv", "mean acceleration is 9810",
+    "in_mm_per_s2.csv": (in_mm_per_s2, ["in_mm_per_s2.csv", "acceleration's magnitude is 98",
                                         "wrong units"]),
     "m_s2_in_volt_cells.xlsx": (xlsx_in_m_s2, ["m_s2_in_volt_cells.xlsx",
                                                "column B of the three sheets", "wrong units",
                                                "in volts"]),
 }
 
-GOOD = [
-    RunInfo("good_1.csv", 0.0, 10.0, "concrete", "extended", "platform", 1),
-    RunInfo("good_2.xlsx", 0.0, 10.0, "concrete", "extended", "platform", 2),
-    RunInfo("good_3.csv", 0.0, 30.0, "carpet", "extended", "platform", 1),
-]
+def info(file: str, omega: float, floor: str, trial: int = 1) -> RunInfo:
+    return RunInfo(file, 0.0, omega, Setup(build="extended", floor=floor), trial)
+
+
+GOOD = [info("good_1.csv", 10.0, "concrete"), info("good_2.xlsx", 10.0, "concrete", 2),
+        info("good_3.csv", 30.0, "carpet")]
 
 
 def main() -> None:
@@ -125,23 +127,26 @@ def main() -> None:
             made = make(Path(tmp))
             shutil.move(str(made), out / name)
         expected[name] = [name, *fragments]
-        infos.append(RunInfo(name, 0.0, 20.0, "tile", "extended", "platform", 1))
+        infos.append(info(name, 20.0, "tile"))
     for name, (make, fragments) in NEW.items():
         make(out / name)
         expected[name] = fragments
-        infos.append(RunInfo(name, 0.0, 20.0, "tile", "extended", "platform", 1))
+        infos.append(info(name, 20.0, "tile"))
     (out / "notes.txt").write_text("not a run\n")
-    infos.append(RunInfo("notes.txt", 0.0, 20.0, "tile", "extended", "platform", 1))
+    infos.append(info("notes.txt", 20.0, "tile"))
     expected["notes.txt"] = ["notes.txt", "unsupported file type '.txt'"]
     # runs.csv rows without files, a file without a row, rows with bad values
-    infos.append(RunInfo("never_recorded.csv", 0.0, 40.0, "tile", "extended", "platform", 1))
+    infos.append(info("never_recorded.csv", 40.0, "tile"))
     expected["never_recorded.csv"] = ["runs.csv row", "file 'never_recorded.csv' not found"]
     m.write_run(out / "orphan.csv", t, a)
     expected["orphan.csv"] = ["orphan.csv: no row of runs.csv describes this file"]
     m.write_run(out / "on_ice.csv", t, a)
     m.write_run(out / "no_omega.csv", t, a)
-    m.write_runs_csv(out, infos)
+    write_runs_csv(out, infos)
     rows = (out / "runs.csv").read_text().splitlines()
+    # the corpus is a dataset as shared/spec/measured-data.md wrote it: its runs.csv
+    # names floor and build "surface" and "config", which the reader still accepts
+    rows[0] = rows[0].replace("floor,build", "surface,config")
     rows += ["on_ice.csv,0,10,ice,extended,platform,1", "no_omega.csv,0,fast,tile,extended,platform,1"]
     (out / "runs.csv").write_text("\n".join(rows) + "\n")
     expected["on_ice.csv"] = [f"runs.csv row {len(rows) - 1}", "surface", "'ice'"]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import collections
 import inspect
 
-from skidsteer._headless import default_to_egl
+from skidsteer.tasks._headless import default_to_egl
 
 default_to_egl()  # before dm_control picks its OpenGL backend (headless machines)
 

@@ -34,10 +34,10 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from scipy import signal
 
-from skidsteer import models, signals  # importing skidsteer registers the tire plugin
-from skidsteer.simulation import (FULLPHYSICS, LOG_RATE_HZ, ROT_ACCEL_DEG_S2,
-                                  TRIAL_DEFLECTION_M, DriveGeometry, firmware_ramp,
-                                  sensor_slice, settle)
+from skidsteer.features import signals
+from skidsteer.robot import Setup, load_model, load_robot, roles, tire
+from skidsteer.simulation.drive import ROT_ACCEL_DEG_S2, DriveGeometry, firmware_ramp
+from skidsteer.simulation.run import FULLPHYSICS, LOG_RATE_HZ, TRIAL_DEFLECTION_M, settle
 
 SUITE = containers.TaggedTasks()
 
@@ -94,7 +94,7 @@ VIBRATION_VALUE_AT_MARGIN = 0.5
 # degrees, so it is falling over.
 TIPPED_COS = math.cos(math.radians(60.0))
 
-_DRIVE_TENDONS = ("left_drive", "right_drive")
+ROBOT = load_robot("pioneer3at")  # the domain's robot (models/pioneer3at/)
 _SAMPLE_BUFFER = 100_000  # accelerometer samples kept if nobody consumes them (100 s)
 
 
@@ -103,11 +103,19 @@ class Physics(mujoco.Physics):
     accelerometer sampled at the thesis's 1 kHz inside each (multi-step) step."""
 
     # --- named quantities ---------------------------------------------------
-    def _slice(self, name: str) -> slice:
+    @property
+    def roles(self) -> roles.Roles:
+        """The model's wheels, chassis, drive and sensors, read from the model once."""
+        if "_roles" not in self.__dict__:
+            self.__dict__["_roles"] = roles.roles_of(self.model.ptr)
+        return self.__dict__["_roles"]
+
+    def _slice(self, role: str) -> slice:
         slices = self.__dict__.setdefault("_slices", {})
-        if name not in slices:
-            slices[name] = sensor_slice(self.model.ptr, name)
-        return slices[name]
+        if role not in slices:
+            r = self.roles
+            slices[role] = r.sensor_slice(self.model.ptr, getattr(r, role), role)
+        return slices[role]
 
     def accelerometer(self) -> np.ndarray:
         """Specific force at the cube, cube axes, m/s^2 (+9.81 on z at rest)."""
@@ -122,20 +130,18 @@ class Physics(mujoco.Physics):
         return float(self.data.sensordata[self._slice("gyro")][2])
 
     def wheel_speeds(self) -> np.ndarray:
-        """(left, right) wheel speeds, rad/s: the drive tendons' velocities."""
-        return self.named.data.ten_velocity[list(_DRIVE_TENDONS)].copy()
+        """(left, right) wheel speeds, rad/s: the velocities of the side's first drive
+        actuator's transmission (a side's mean axle speed on the Pioneer's tendons)."""
+        r = self.roles
+        return self.data.actuator_velocity[[r.left[0], r.right[0]]].copy()
 
     def orientation(self) -> np.ndarray:
         """The chassis's rotation matrix (body to world), 9 values, row major."""
-        return self.named.data.xmat["chassis"].copy()
-
-    def chassis_quaternion(self) -> np.ndarray:
-        """The chassis's orientation as a unit quaternion (w, x, y, z)."""
-        return self.data.sensordata[self._slice("orientation")].copy()
+        return self.data.xmat[self.roles.chassis].copy()
 
     def upright(self) -> float:
         """Cosine of the chassis's tilt: the world z component of its z axis."""
-        return float(self.named.data.xmat["chassis", "zz"])
+        return float(self.data.xmat[self.roles.chassis][8])
 
     @property
     def drive(self) -> DriveGeometry:
@@ -164,8 +170,10 @@ class Physics(mujoco.Physics):
         mj.mj_setState(m, d, self.settled_state(), FULLPHYSICS)
         d.time = 0.0
         if random is not None and deflection_m > 0:
-            st = d.plugin_state.reshape(-1, 3)  # [deflection, velocity, stuck] per wheel, dir
-            st[:, 0] += random.normal(0.0, deflection_m, len(st))
+            deflection = tire.TireState(m, d.plugin_state, tire.instance_id(m)).deflection
+            # one draw per wheel and direction, in the state's order (wheel, then x, y)
+            deflection += random.normal(0.0, deflection_m, deflection.size).reshape(
+                deflection.shape)
         self.reset_samples()
 
     # --- accelerometer samples at the log rate ------------------------------------
@@ -354,10 +362,10 @@ def feedforward_action(physics: Physics, omega_deg_s: float, ramp: bool = True) 
 def _check_options(floor, omega_deg_s, build, lambda_max, time_limit, control_timestep,
                    init_deflection_m) -> None:
     """ValueError naming the first bad option."""
-    if floor not in models.FLOORS:
-        raise ValueError(f"floor: unknown floor {floor!r}, use one of {list(models.FLOORS)}")
-    if build not in models.BUILDS:
-        raise ValueError(f"build: unknown build {build!r}, use one of {sorted(models.BUILDS)}")
+    if floor not in ROBOT.floors:
+        raise ValueError(f"floor: unknown floor {floor!r}, use one of {list(ROBOT.floors)}")
+    if build not in ROBOT.builds:
+        raise ValueError(f"build: unknown build {build!r}, use one of {sorted(ROBOT.builds)}")
     if omega_deg_s is not None:
         low, high = OMEGA_RANGE_DEG_S
         try:
@@ -397,8 +405,8 @@ def _make(smooth: bool, floor: str = "concrete", omega_deg_s: float | None = Non
           random=None, environment_kwargs=None) -> control.Environment:
     _check_options(floor, omega_deg_s, build, lambda_max, time_limit, control_timestep,
                    init_deflection_m)
-    tire = {"lambda_max": lambda_max} if lambda_max is not None else None
-    m = models.load_model(build, floor, tire)
+    tire_attributes = {"lambda_max": lambda_max} if lambda_max is not None else None
+    m = load_model(Setup(ROBOT.name, build, floor), tire=tire_attributes)
     _check_control_timestep(control_timestep, m.opt.timestep)
     physics = Physics.from_model(wrapper.MjModel(m))
     task = Swivel(omega_deg_s=omega_deg_s, smooth=smooth,
@@ -413,7 +421,7 @@ def _make(smooth: bool, floor: str = "concrete", omega_deg_s: float | None = Non
 
 _OPTIONS_DOC = """
     Args:
-      floor: "concrete", "tile" or "carpet" (skidsteer.models.FLOORS).
+      floor: "concrete", "tile" or "carpet" (the Pioneer's floors, models/pioneer3at/).
       omega_deg_s: commanded yaw rate, deg/s, |omega| in [2, 64] (either sign);
         None: a random one per episode, uniform in [2, 64].
       build: "extended" (mast, laptop, camera) or "platform".

@@ -1,0 +1,60 @@
+"""ground_roughness: the floor is not flat (the thesis's own suspect, Sec. 6.2).
+
+The cause replaces the floor plane by a heightfield under the tire law (the
+plugin reads heightfields, plugin/tire/README.md): a Gaussian random surface
+of the given RMS height and correlation length (a Gaussian-filtered white
+field), its realisation picked by the seed.  It covers the square the robot
+swivels and drives in.
+"""
+
+import mujoco
+import numpy as np
+from scipy import ndimage
+
+from skidsteer.diagnosis.causes import Cause, NotApplicable, Parameter
+
+HEIGHT_RMS = Parameter(
+    "height_rms_m", 2e-5, 2e-3, 2e-4, log=True,
+    source="assumed: indoor floors at the scale of a tire, from polished concrete (~0.02 mm) "
+           "to worn tiles with joints and carpet seams (~2 mm); value: the geometric middle")
+CORRELATION_LENGTH = Parameter(
+    "correlation_length_m", 0.02, 0.2, 0.05, log=True,
+    source="assumed: undulations of a few tile or tread widths; the lower bound is the tire's "
+           "contact patch (the plugin samples the floor at one point)")
+HALF_SIZE_M = 1.5  # the swivel stays within 0.3 m of the start; straight runs need the command
+GRID_PER_CORRELATION = 4  # samples per correlation length
+
+
+def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float,
+            seed: int) -> np.ndarray:
+    """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m."""
+    step = correlation_length_m / GRID_PER_CORRELATION
+    n = int(np.ceil(2 * half_size_m / step)) + 1
+    if n > 2001:
+        raise NotApplicable(f"ground_roughness: a {2 * half_size_m:g} m floor at "
+                            f"{step * 1e3:.1f} mm needs {n}x{n} samples (more than 2001^2)")
+    white = np.random.default_rng(seed).standard_normal((n, n))
+    field = ndimage.gaussian_filter(white, GRID_PER_CORRELATION / np.sqrt(2), mode="wrap")
+    field -= field.mean()
+    return field * (height_rms_m / field.std())
+
+
+def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_SIZE_M) -> None:
+    planes = [g for g in spec.worldbody.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
+    if len(planes) != 1:
+        raise NotApplicable(f"ground_roughness needs one floor plane in the world body, the "
+                            f"model has {len(planes)}")
+    floor = planes[0]
+    heights = surface(params["height_rms_m"], params["correlation_length_m"], half_size_m,
+                         seed)
+    low, span = float(heights.min()), float(np.ptp(heights))
+    n = heights.shape[0]
+    spec.add_hfield(name="rough_floor", size=[half_size_m, half_size_m, span, 0.05],
+                    nrow=n, ncol=n, userdata=((heights - low) / span).ravel().tolist())
+    floor.type = mujoco.mjtGeom.mjGEOM_HFIELD
+    floor.hfieldname = "rough_floor"
+    floor.pos = [floor.pos[0], floor.pos[1], floor.pos[2] + low]
+
+
+CAUSE = Cause("ground_roughness", "the floor is uneven (a random heightfield)",
+              HEIGHT_RMS, (CORRELATION_LENGTH,), apply, recovery_factor=1.5, null_value=2e-5, random_realisation=True)
