@@ -50,8 +50,9 @@ def to_1khz(x: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
     return signal.decimate(x, factor, ftype="fir", axis=0, zero_phase=True), 1 / (factor * dt)
 
 
-def unstable_reason(dt: float, tire: dict | None = None) -> str | None:
-    m = skidsteer.load_model("extended", "concrete", timestep=dt, tire=tire)
+def unstable_reason(dt: float, tire: dict | None = None, build: str = "extended",
+                    floor: str = "concrete") -> str | None:
+    m = skidsteer.load_model(build, floor, timestep=dt, tire=tire)
     d = mujoco.MjData(m)
     settle(m, d, 0.5)
     rng = np.random.default_rng(0)

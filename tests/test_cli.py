@@ -116,3 +116,29 @@ def test_a_killed_sweep_looks_unfinished_and_its_rerun_equals_an_uninterrupted_o
 
     assert main(args + ["--out", str(killed)]) == 0
     assert {p.name: p.read_bytes() for p in killed.iterdir()} == expected
+
+
+SIMULATING_COMMANDS = [["swivel"], ["free-response"], ["pull"], ["straight"],
+                       ["sweep", "--out", "x"], ["reproduce", "--out", "x"],
+                       ["compare", "x"], ["diagnose", "x"]]
+
+
+@pytest.mark.parametrize("command", SIMULATING_COMMANDS, ids=lambda c: c[0])
+@pytest.mark.parametrize("bad", ["0", "-1e-3", "nan", "inf", "fast"])
+def test_every_simulating_command_refuses_a_bad_timestep_by_name(command, bad, capsys):
+    # argparse exits with 2 before anything simulates
+    with pytest.raises(SystemExit) as exit_info:
+        main(command + [f"--timestep={bad}"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--timestep" in err and repr(bad) in err, err
+
+
+def test_straight_and_pull_run_at_the_timestep_given(capsys):
+    # a step they would not take by default: the run must say so in its result
+    assert main(["straight", "--speed", "0.3", "--duration", "1", "--timestep", "5e-4",
+                 "--json"]) == 0
+    straight = json.loads(capsys.readouterr().out)
+    assert main(["pull", "--distance", "0.01", "--timestep", "5e-4", "--json"]) == 0
+    pull = json.loads(capsys.readouterr().out)
+    assert straight["timestep_s"] == 5e-4 and pull["timestep_s"] == 5e-4

@@ -60,6 +60,8 @@ class TireParams:
     # "coulomb": contact point with kinetic friction (eq. 4.9/4.13); "relay": eq. 6.4
     # as the thesis's Simulink model has it (relay flag, no kinetic-friction term)
     contact_point: str = _DEFAULTS["contact_point"]
+    # "implicit": forces solved at the end-of-step slips; "explicit": start-of-step forces
+    coupling: str = _DEFAULTS["coupling"]
 
     @property
     def stiffness_x(self) -> float:
@@ -77,7 +79,7 @@ class TireParams:
         config.pop("radius", None)
         mu_s, mu_k = FLOOR_FRICTION[floor]
         values = {"mu_static": mu_s, "mu_kinetic": mu_k}
-        values.update({k: (v if k == "contact_point" else float(v))
+        values.update({k: (v if k in ("contact_point", "coupling") else float(v))
                        for k, v in config.items()})
         return cls(**values)
 
@@ -120,18 +122,21 @@ def forces(p: TireParams, k: Kinematics, state: np.ndarray) -> np.ndarray:
 
 
 def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, drive, h,
-                      st: np.ndarray) -> None:
+                      st: np.ndarray, kinetic_slope: float = 0.0) -> float:
     """One backward-Euler step of the contact point along one direction (in place).
 
     Sticking: v = 0 while |K s + D u| <= F_s.  Slipping: m dv/dt = K s + D (u - v)
     - F_k sign(v), ds/dt = u - v; it ends when the friction impulse stops v.
+    Returns d f / d u of the end-of-step force f = -D (u - v') - K s' in the regime
+    the step ends in (kinetic_slope = d F_k / d u).
     """
     deflection, velocity = st[DEFLECTION], st[VELOCITY]
+    spring_damper = damping + h * stiffness
     if st[STUCK] > 0.5:
         deflection_next = deflection + h * drive
         if abs(stiffness * deflection_next + damping * drive) <= static_limit:
             st[DEFLECTION], st[VELOCITY] = deflection_next, 0.0
-            return
+            return -spring_damper
         velocity = 0.0
     a = mass + h * damping + h * h * stiffness
     velocity_free = (mass * velocity
@@ -139,16 +144,20 @@ def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, dri
     friction_dv = h * kinetic_limit / a
     if abs(velocity_free) > friction_dv:
         velocity_next = velocity_free - math.copysign(friction_dv, velocity_free)
+        velocity_slope = (h * (stiffness * h + damping)
+                          - (1.0 if velocity_free > 0 else -1.0) * h * kinetic_slope) / a
         st[STUCK] = 0.0
     else:
         velocity_next = 0.0
+        velocity_slope = 0.0
         st[STUCK] = 1.0
     st[VELOCITY] = velocity_next
     st[DEFLECTION] = deflection + h * (drive - velocity_next)
+    return -spring_damper * (1 - velocity_slope)
 
 
 def advance_direction_relay(stiffness, damping, mass, static_limit, kinetic_limit, drive, h,
-                            st: np.ndarray) -> None:
+                            st: np.ndarray, kinetic_slope: float = 0.0) -> float:
     """One step of eq. 6.4 as simulated in the thesis (in place).
 
     m_t dv/dt + D v = F' with F' = K s + D u while the relay is on, 0 while off;
@@ -163,34 +172,61 @@ def advance_direction_relay(stiffness, damping, mass, static_limit, kinetic_limi
         off = True
     if off:
         velocity_next = mass * velocity / (mass + h * damping)
+        velocity_slope = 0.0
     else:
         a = mass + h * damping + h * h * stiffness
         velocity_next = (mass * velocity
                          + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a
+        velocity_slope = h * (stiffness * h + damping) / a
     st[STUCK] = 1.0 if off else 0.0
     st[VELOCITY] = velocity_next
     st[DEFLECTION] = deflection + h * (drive - velocity_next)
+    return -(damping + h * stiffness) * (1 - velocity_slope)
 
 
 def reset_state(state: np.ndarray) -> None:
     state[:] = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0]
 
 
-def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> None:
-    """Advances one wheel's state (in place) by h seconds."""
+def friction_slopes(p: TireParams, k: Kinematics) -> tuple[float, float]:
+    """(d mu_x / d u_x, d mu_y / d u_y) within the branch of friction_factors."""
+    rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
+    lam = min(1.0, slip_x / rolling) if rolling > 0 else 1.0
+    if lam < p.lambda_max:
+        scale = rolling * p.lambda_max
+        return (np.sign(k.slip_x) / scale,
+                np.sign(k.slip_y) / scale if slip_y < scale else 0.0)
+    return 0.0, (np.sign(k.slip_y) / slip_x if 0 < slip_x and slip_y < slip_x else 0.0)
+
+
+def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.ndarray:
+    """Advances one wheel's state (in place) by h seconds; returns the force slopes
+    (d f_x / d u_x, d f_y / d u_y) of the regime it ends in."""
     normal = normal_force(p, k)
     if normal <= 0:
         reset_state(state)
-        return
+        return np.zeros(2)
     mu = friction_factors(p, k)
+    mu_slope = friction_slopes(p, k)
     step = advance_direction_relay if p.contact_point == "relay" else advance_direction
+    slopes = np.zeros(2)
     for direction, (stiffness, damping, drive) in enumerate((
             (p.stiffness_x, p.damping_x, k.slip_x),
             (p.stiffness_y, p.damping_y, k.slip_y))):
-        step(stiffness, damping, p.contact_mass,
-             p.mu_static * mu[direction] * normal,
-             p.mu_kinetic * mu[direction] * normal,
-             drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR])
+        slopes[direction] = step(
+            stiffness, damping, p.contact_mass,
+            p.mu_static * mu[direction] * normal,
+            p.mu_kinetic * mu[direction] * normal,
+            drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR],
+            p.mu_kinetic * mu_slope[direction] * normal)
+    return slopes
+
+
+def step_force(p: TireParams, k: Kinematics, h: float, state: np.ndarray):
+    """([N, f_x, f_y] at the end of a step whose rim slips are k's, slopes); state kept."""
+    after = np.array(state, dtype=float)
+    slopes = advance(p, k, h, after)
+    return forces(p, k, after), slopes
 
 
 # --------------------------------------------------------------- kinematics
@@ -238,6 +274,11 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
     return k, np.stack([normal, tx, ty]), point
 
 
+_MAX_ITERATIONS = 20  # tire_plugin.c's TIRE_MAX_ITERATIONS
+_SMALLEST_STEP = 1 / 64  # TIRE_SMALLEST_STEP
+_SLIP_TOLERANCE = 1e-10  # m/s, TIRE_SLIP_TOLERANCE
+
+
 class TireReference:
     """The whole plugin instance in Python: forces, generalized forces, advance."""
 
@@ -251,8 +292,186 @@ class TireReference:
         adr = self.m.plugin_stateadr[self.instance] + NSTATE_WHEEL * w
         return state_vector[adr:adr + NSTATE_WHEEL]
 
+    # ---------------------------------------------------------- implicit coupling
+
+    def _same_branch(self) -> np.ndarray:
+        m = self.m
+        mask = np.zeros((m.nv, m.nv), dtype=bool)
+        for i in range(m.nv):
+            j = i
+            while j >= 0:
+                mask[i, j] = mask[j, i] = True
+                j = m.dof_parentid[j]
+        return mask
+
+    def _step_matrix(self, d: mujoco.MjData) -> np.ndarray:
+        """M + h B: the damping each integrator treats implicitly, in M's sparsity."""
+        m, h = self.m, self.m.opt.timestep
+        nv = m.nv
+        H = np.zeros((nv, nv))
+        mujoco.mj_fullM(m, d, H)
+        integ = m.opt.integrator
+        implicit = integ in (mujoco.mjtIntegrator.mjINT_IMPLICIT,
+                             mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+        euler = (integ == mujoco.mjtIntegrator.mjINT_EULER
+                 and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+        damper = not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_DAMPER
+        actuation = not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION
+        if (implicit or euler) and damper:
+            H[np.diag_indices(nv)] += h * m.dof_damping
+        extra = np.zeros((nv, nv))
+        if implicit and damper:
+            for t in range(m.ntendon):
+                adr, nnz = m.ten_J_rowadr[t], m.ten_J_rownnz[t]
+                row = np.zeros(nv)
+                row[m.ten_J_colind[adr:adr + nnz]] = d.ten_J[adr:adr + nnz]
+                extra += h * m.tendon_damping[t] * np.outer(row, row)
+        if implicit and actuation:
+            for a in range(m.nu):
+                slope = 0.0
+                if m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
+                    slope += m.actuator_biasprm[a, 2]
+                if m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_AFFINE:
+                    if m.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE:
+                        signal = d.ctrl[m.actuator_ctrladr[a]] if m.actuator_ctrlnum[a] else 0.0
+                    else:
+                        signal = d.act[m.actuator_actadr[a] + m.actuator_actnum[a] - 1]
+                    slope += m.actuator_gainprm[a, 2] * signal
+                for o in range(m.actuator_outadr[a], m.actuator_outadr[a] + m.actuator_outnum[a]):
+                    adr, nnz = d.moment_rowadr[o], d.moment_rownnz[o]
+                    row = np.zeros(nv)
+                    row[d.moment_colind[adr:adr + nnz]] = d.actuator_moment[adr:adr + nnz]
+                    extra -= h * slope * np.outer(row, row)
+        return H + np.where(self._same_branch(), extra, 0.0)
+
+    def implicit_solve(self, d: mujoco.MjData):
+        """(forces (nwheel, 3), end-of-step slips (2 nwheel), contact rows J), as
+        tire_plugin.c's implicit_forces solves them."""
+        m, p, h = self.m, self.params, self.m.opt.timestep
+        nv, nw = m.nv, len(self.wheels)
+        n = 2 * nw
+        J = np.zeros((n, nv))
+        contacts = []
+        for w, wheel in enumerate(self.wheels):
+            contact = wheel_contact(m, d, wheel, self.floors)
+            contacts.append(contact)
+            if contact is not None and normal_force(p, contact[0]) > 0:
+                jacp = np.zeros((3, nv))
+                mujoco.mj_jac(m, d, jacp, None, contact[2], wheel.body)
+                J[2 * w], J[2 * w + 1] = contact[1][1] @ jacp, contact[1][2] @ jacp
+        out = np.zeros((nw, 3))
+        if not J.any():
+            return out, np.zeros(n), J, contacts
+        scratch = mujoco.MjData(m)
+        mujoco.mj_copyData(scratch, m, d)
+        mujoco.mj_fwdActuation(m, scratch)
+        bias = np.zeros(nv)
+        mujoco.mj_rne(m, d, 0, bias)
+        # the passive forces before the plugin's (no actuator gravity compensation here)
+        other = d.qfrc_spring + d.qfrc_damper + d.qfrc_gravcomp + d.qfrc_fluid
+        other = other + scratch.qfrc_actuator - bias + d.qfrc_applied
+        for w, contact in enumerate(contacts):  # the normal forces, explicit
+            if contact is not None and normal_force(p, contact[0]) > 0:
+                mujoco.mj_applyFT(m, d, contact[1][0] * normal_force(p, contact[0]),
+                                  np.zeros(3), contact[2], self.wheels[w].body, other)
+        for b in range(1, m.nbody):
+            if d.xfrc_applied[b].any():
+                mujoco.mj_applyFT(m, d, d.xfrc_applied[b, :3], d.xfrc_applied[b, 3:],
+                                  d.xipos[b], b, other)
+        B = J.copy()
+        if d.ne:
+            if mujoco.mj_isSparse(m):
+                E = np.zeros((d.ne, nv))
+                for i in range(d.ne):
+                    adr, nnz = d.efc_J_rowadr[i], d.efc_J_rownnz[i]
+                    E[i, d.efc_J_colind[adr:adr + nnz]] = d.efc_J[adr:adr + nnz]
+            else:
+                E = d.efc_J[:d.ne * nv].reshape(d.ne, nv)
+            M = np.zeros((nv, nv))
+            mujoco.mj_fullM(m, d, M)
+            EMinv = np.linalg.solve(M, E.T).T
+            S = E @ EMinv.T + np.diag(d.efc_R[:d.ne])
+            kbip = d.efc_KBIP[:d.ne]
+            aref = -kbip[:, 1] * (E @ d.qvel) - kbip[:, 0] * kbip[:, 2] * d.efc_pos[:d.ne]
+            lam0 = np.linalg.solve(S, aref - E @ np.linalg.solve(M, other))
+            lam = np.linalg.solve(S, -EMinv @ J.T)  # (ne, n)
+            other = other + E.T @ lam0
+            B = B + lam.T @ E
+        H = self._step_matrix(d)
+        A = J @ np.linalg.solve(H, B.T)
+        slip_free = J @ (d.qvel + h * np.linalg.solve(H, other))
+        slip = np.zeros(n)
+        for w, contact in enumerate(contacts):
+            if contact is not None:
+                slip[2 * w], slip[2 * w + 1] = contact[0].slip_x, contact[0].slip_y
+        state = d.plugin_state
+
+        def evaluate(u):
+            force, slope = np.zeros(n), np.zeros(n)
+            for w, contact in enumerate(contacts):
+                if contact is not None:
+                    k = dataclasses.replace(contact[0], slip_x=u[2 * w], slip_y=u[2 * w + 1])
+                    f, slope[2 * w:2 * w + 2] = step_force(p, k, h, self._state(state, w))
+                    force[2 * w:2 * w + 2] = f[1:]
+            residual = slip_free + h * (A @ force) - u
+            return force, slope, residual, float(residual @ residual)
+
+        force, slope, residual, merit = evaluate(slip)
+        converged = False
+        for _ in range(_MAX_ITERATIONS):
+            if np.max(np.abs(residual)) <= _SLIP_TOLERANCE:
+                converged = True
+                break
+            G = np.eye(n) - h * A * slope[None, :]
+            try:
+                step = np.linalg.solve(G, residual)
+            except np.linalg.LinAlgError:
+                break
+            t, accepted = 1.0, False
+            while t >= _SMALLEST_STEP:
+                trial = slip + t * step
+                result = evaluate(trial)
+                if result[3] <= (1 - 1e-4 * t) * merit:
+                    slip = trial
+                    force, slope, residual, merit = result
+                    accepted = True
+                    break
+                t *= 0.5
+            if not accepted:
+                break
+        if not converged:
+            rows = [r for r in range(n) if J[r].any()]
+            if rows:
+                try:
+                    force[rows] = np.linalg.solve(h * A[np.ix_(rows, rows)],
+                                                  slip[rows] - slip_free[rows])
+                except np.linalg.LinAlgError:
+                    pass
+        for w, contact in enumerate(contacts):
+            if contact is None:
+                continue
+            out[w, 0] = normal_force(p, contact[0])
+            if out[w, 0] > 0:
+                out[w, 1:] = force[2 * w:2 * w + 2]
+        return out, slip, J, contacts
+
+    def explicit_generalized(self, d, forces_per_wheel) -> np.ndarray:
+        qfrc = np.zeros(self.m.nv)
+        for w, wheel in enumerate(self.wheels):
+            contact = wheel_contact(self.m, d, wheel, self.floors)
+            if contact is None or forces_per_wheel[w][0] <= 0:
+                continue
+            k, frame, point = contact
+            mujoco.mj_applyFT(self.m, d, frame.T @ forces_per_wheel[w], np.zeros(3), point,
+                              wheel.body, qfrc)
+        return qfrc
+
+    # ---------------------------------------------------------- the plugin's outputs
+
     def tire_forces(self, d: mujoco.MjData) -> np.ndarray:
         """(nwheel, 3) [N, f_x, f_y], as the tire_forces sensor reports them."""
+        if self.params.coupling == "implicit":
+            return self.implicit_solve(d)[0]
         out = np.zeros((len(self.wheels), 3))
         for w, wheel in enumerate(self.wheels):
             contact = wheel_contact(self.m, d, wheel, self.floors)
@@ -262,25 +481,24 @@ class TireReference:
 
     def generalized_forces(self, d: mujoco.MjData) -> np.ndarray:
         """The plugin's contribution to qfrc_passive."""
-        qfrc = np.zeros(self.m.nv)
-        for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(self.m, d, wheel, self.floors)
-            if contact is None:
-                continue
-            k, frame, point = contact
-            f = forces(self.params, k, self._state(d.plugin_state, w))
-            if f[0] > 0:
-                mujoco.mj_applyFT(self.m, d, frame.T @ f, np.zeros(3), point, wheel.body, qfrc)
-        return qfrc
+        return self.explicit_generalized(d, self.tire_forces(d))
 
-    def next_state(self, d: mujoco.MjData) -> np.ndarray:
-        """plugin_state after one mj_step from d (kinematics of the start of the step)."""
+    def next_state(self, d: mujoco.MjData, qvel_next: np.ndarray | None = None) -> np.ndarray:
+        """plugin_state after one mj_step from d.  Explicit: with the kinematics of the
+        start of the step.  Implicit: with the slips of the step's end, J qvel_next."""
         state = d.plugin_state.copy()
+        implicit = self.params.coupling == "implicit"
+        if implicit:
+            _, _, J, contacts = self.implicit_solve(d)
         for w, wheel in enumerate(self.wheels):
             st = self._state(state, w)
-            contact = wheel_contact(self.m, d, wheel, self.floors)
+            contact = contacts[w] if implicit else wheel_contact(self.m, d, wheel, self.floors)
             if contact is None:
                 reset_state(st)
-            else:
-                advance(self.params, contact[0], self.m.opt.timestep, st)
+                continue
+            k = contact[0]
+            if implicit and normal_force(self.params, k) > 0:
+                k = dataclasses.replace(k, slip_x=float(J[2 * w] @ qvel_next),
+                                        slip_y=float(J[2 * w + 1] @ qvel_next))
+            advance(self.params, k, self.m.opt.timestep, st)
         return state

@@ -5,8 +5,8 @@
 // plugin/tire/README.md for every attribute, its default and its source.
 //
 // The functions here are pure: they take the wheel kinematics and the
-// per-wheel state and return forces or the next state.  tire.c wires them to
-// MuJoCo; python/skidsteer/tire_reference.py is the readable reference that
+// per-wheel state and return forces or the next state.  tire_plugin.c wires them to
+// MuJoCo; tests/tire_reference.py is the readable reference that
 // the tests hold this code to.
 
 #ifndef SKIDSTEER_PLUGIN_TIRE_TIRE_H_
@@ -63,6 +63,19 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 
 // Advance one wheel's contact-point state by h seconds, implicitly.
 void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state);
+
+// d mu_x / d u_x and d mu_y / d u_y of tire_friction_factors within its
+// current branch (0 where a factor is saturated).
+void tire_friction_slopes(const tireParams* p, const tireKinematics* k, mjtNum slope[2]);
+
+// The force [N, f_x, f_y] on the wheel at the end of a step of h seconds in
+// which the rim slips at k->slip_x, k->slip_y (the contact-point state
+// advanced from `state`, which is left unchanged), and slope[d] = d f_d / d u_d
+// within the regime (stick, slip, relay on/off) that the step ends in.  The
+// implicit coupling of tire_plugin.c solves for the slips at which these
+// forces move the robot.
+void tire_step_force(const tireParams* p, const tireKinematics* k, mjtNum h,
+                     const mjtNum* state, mjtNum force[3], mjtNum slope[2]);
 
 // Reset one wheel's state: no deflection, contact point at rest and sticking.
 void tire_reset_state(mjtNum* state);

@@ -1,5 +1,5 @@
 // The tire law of the thesis, Ch. 4, per wheel and per direction.
-// python/skidsteer/tire_reference.py is the same law written for reading; the
+// tests/tire_reference.py is the same law written for reading; the
 // tests require both to agree to ~1e-12 relative on random inputs.
 
 #include "tire.h"
@@ -79,11 +79,17 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 // With m_t small that is the moment |K s + D u| falls to F_k (eq. 4.8), the
 // relay condition of eq. 6.4; unlike eq. 6.4 the kinetic-friction term stays
 // in, so a wheel in sustained slip feels kinetic friction.
+//
+// slope: when not NULL, receives d f / d drive of the end-of-step force
+// f = -D (u - v') - K s' within the regime the step ends in, with
+// kinetic_slope = d kinetic_limit / d drive (the slip-dependent friction of
+// eq. 4.12): the stiffness the implicit coupling of tire_plugin.c needs.
 static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
-                              mjtNum static_limit, mjtNum kinetic_limit,
-                              mjtNum drive, mjtNum h, mjtNum* st) {
+                              mjtNum static_limit, mjtNum kinetic_limit, mjtNum kinetic_slope,
+                              mjtNum drive, mjtNum h, mjtNum* st, mjtNum* slope) {
   mjtNum deflection = st[TIRE_DEFLECTION];
   mjtNum velocity = st[TIRE_VELOCITY];
+  mjtNum spring_damper = damping + h * stiffness;  // -d f / d (u - v') at fixed s
 
   if (st[TIRE_STUCK] > 0.5) {
     mjtNum deflection_next = deflection + h * drive;
@@ -91,6 +97,7 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
     if (fabs(holding) <= static_limit) {
       st[TIRE_DEFLECTION] = deflection_next;
       st[TIRE_VELOCITY] = 0;
+      if (slope) *slope = -spring_damper;
       return;
     }
     velocity = 0;  // breaks away from rest
@@ -101,16 +108,21 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
   mjtNum velocity_free = (mass * velocity
                           + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a;
   mjtNum friction_dv = h * kinetic_limit / a;
-  mjtNum velocity_next;
+  mjtNum velocity_next, velocity_slope;
   if (fabs(velocity_free) > friction_dv) {
     velocity_next = velocity_free - copysign(friction_dv, velocity_free);
+    // d/du of -sign(v) h F_k(u) / a: kinetic_slope keeps its own sign
+    velocity_slope = (h * (stiffness * h + damping)
+                      - (velocity_free > 0 ? 1 : -1) * h * kinetic_slope) / a;
     st[TIRE_STUCK] = 0;
   } else {
     velocity_next = 0;
+    velocity_slope = 0;
     st[TIRE_STUCK] = 1;
   }
   st[TIRE_VELOCITY] = velocity_next;
   st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
+  if (slope) *slope = -spring_damper * (1 - velocity_slope);
 }
 
 
@@ -124,7 +136,9 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
 // negligible next to D u).  The state's TIRE_STUCK holds the flag: 1 = off.
 static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mass,
                                     mjtNum static_limit, mjtNum kinetic_limit,
-                                    mjtNum drive, mjtNum h, mjtNum* st) {
+                                    mjtNum kinetic_slope, mjtNum drive, mjtNum h, mjtNum* st,
+                                    mjtNum* slope) {
+  (void)kinetic_slope;  // the relay's limits only switch it; they never enter the force
   mjtNum deflection = st[TIRE_DEFLECTION];
   mjtNum velocity = st[TIRE_VELOCITY];
   mjtNum driving = fabs(stiffness * deflection + damping * drive);  // |F'| at step start
@@ -134,39 +148,81 @@ static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mas
   } else if (!off && driving < kinetic_limit) {
     off = 1;
   }
-  mjtNum velocity_next;
+  mjtNum velocity_next, velocity_slope;
   if (off) {
     velocity_next = mass * velocity / (mass + h * damping);
+    velocity_slope = 0;
   } else {
     mjtNum a = mass + h * damping + h * h * stiffness;
     velocity_next = (mass * velocity
                      + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a;
+    velocity_slope = h * (stiffness * h + damping) / a;
   }
+  if (slope) *slope = -(damping + h * stiffness) * (1 - velocity_slope);
   st[TIRE_STUCK] = off;
   st[TIRE_VELOCITY] = velocity_next;
   st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
 }
 
 
-void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state) {
+static mjtNum sign(mjtNum x) {
+  return (mjtNum)((x > 0) - (x < 0));
+}
+
+
+void tire_friction_slopes(const tireParams* p, const tireKinematics* k, mjtNum slope[2]) {
+  mjtNum rolling = fabs(k->rolling_speed);
+  mjtNum slip_x = fabs(k->slip_x);
+  mjtNum slip_y = fabs(k->slip_y);
+  mjtNum lambda = rolling > 0 ? fmin(1, slip_x / rolling) : 1;
+  if (lambda < p->lambda_max) {
+    mjtNum scale = rolling * p->lambda_max;
+    slope[TIRE_DIR_X] = sign(k->slip_x) / scale;
+    slope[TIRE_DIR_Y] = slip_y < scale ? sign(k->slip_y) / scale : 0;
+  } else {
+    slope[TIRE_DIR_X] = 0;
+    slope[TIRE_DIR_Y] = slip_x > 0 && slip_y < slip_x ? sign(k->slip_y) / slip_x : 0;
+  }
+}
+
+
+static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h,
+                          mjtNum* state, mjtNum* slope) {
   mjtNum normal = tire_normal_force(p, k);
   if (normal <= 0) {
     tire_reset_state(state);  // unloaded tire relaxes; it lands undeflected
+    if (slope) slope[0] = slope[1] = 0;
     return;
   }
-  mjtNum mu[2];
+  mjtNum mu[2], mu_slope[2] = {0, 0};
   tire_friction_factors(p, k, mu);
+  if (slope) tire_friction_slopes(p, k, mu_slope);
   const mjtNum stiffness[2] = {p->stiffness_x, p->stiffness_y};
   const mjtNum damping[2] = {p->damping_x, p->damping_y};
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
   for (int dir = 0; dir < TIRE_NDIR; dir++) {
     // eq. 4.10: static and kinetic limits scale with the slip factor
-    void (*step)(mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum*) =
-        p->relay ? advance_direction_relay : advance_direction;
+    void (*step)(mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum*,
+                 mjtNum*) = p->relay ? advance_direction_relay : advance_direction;
     step(stiffness[dir], damping[dir], p->contact_mass,
          p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * normal,
-         drive[dir], h, state + dir * TIRE_NSTATE_DIR);
+         p->mu_kinetic * mu_slope[dir] * normal, drive[dir], h,
+         state + dir * TIRE_NSTATE_DIR, slope ? slope + dir : NULL);
   }
+}
+
+
+void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state) {
+  advance_wheel(p, k, h, state, NULL);
+}
+
+
+void tire_step_force(const tireParams* p, const tireKinematics* k, mjtNum h,
+                     const mjtNum* state, mjtNum force[3], mjtNum slope[2]) {
+  mjtNum next[TIRE_NSTATE_WHEEL];
+  for (int i = 0; i < TIRE_NSTATE_WHEEL; i++) next[i] = state[i];
+  advance_wheel(p, k, h, next, slope);
+  tire_forces(p, k, next, force);  // the spring-damper force at the end of the step
 }
 
 

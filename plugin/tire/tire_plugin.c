@@ -40,6 +40,7 @@ enum {
   ATTR_LAMBDA_MAX,
   ATTR_CONTACT_POINT,
   ATTR_RADIUS,
+  ATTR_COUPLING,
   TIRE_NATTRIBUTE
 };
 
@@ -115,6 +116,15 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "radius", "r", SKIDSTEER_TIRE_NUMBER, 0, "from geom", 0, INFINITY, 0, 0, 1,
     "", "m", "must be > 0, or unset to take each wheel's radius from its geom",
     "unloaded wheel radius; unset (or 0): each wheel's cylinder or sphere geom"},
+  [ATTR_COUPLING] = {
+    "coupling", "", SKIDSTEER_TIRE_CHOICE, NAN, "explicit", 0, 0, 0, 0, 0,
+    "explicit implicit", "",
+    "use explicit (default) or implicit",
+    "numerics, not physics: explicit applies the forces of the start-of-step state; "
+    "implicit solves each step for the end-of-step slips at which the tire forces of every "
+    "wheel, stick/slip decided at the end of the step, move the robot (stable to 2 ms, yaw "
+    "rate within 1 % at 1 ms; stick-slip vibration amplitudes still need 0.1 ms or less: "
+    "README, Time step)"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -170,6 +180,7 @@ static void fill_tables(void) {
 
 typedef struct {
   tireParams params;
+  int implicit;        // 1: implicit coupling (the coupling attribute)
   int nwheel;
   int* wheel_body;     // body id of each wheel, in body order
   int* wheel_joint;    // its hinge joint (the axle)
@@ -178,6 +189,20 @@ typedef struct {
   int nfloor;
   int* floor_geom;     // plane and hfield geoms of the world body
   int sensor_adr;      // address in sensordata, -1 if no sensor names the instance
+
+  // Written by each passive compute, read by the sensor and by advance: derived
+  // from mjData and plugin_state, never state of their own.
+  int fresh;              // 1 from a passive compute until the advance that uses it
+  int* touching;          // wheel w touched the floor at that compute
+  tireKinematics* kinematics;  // its start-of-step kinematics
+  mjtNum* jacobian;       // rows t_x^T J_p, t_y^T J_p at the contact point (2 nwheel x nv)
+  mjtNum* force;          // [N, f_x, f_y] applied (nwheel x 3)
+  char* same_branch;      // dofs i, j on one branch of the tree: M's sparsity (nv x nv)
+  int max_equality_rows;  // equality-constraint rows the scratch has room for
+  mjtNum* scratch;        // the implicit solve's work space (scratch_size numbers)
+  size_t scratch_size;
+  int* rows;              // its loaded contact rows (2 nwheel)
+  int iterations;         // Newton iterations of the last implicit solve
 } tireInstance;
 
 
@@ -269,7 +294,8 @@ static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
 }
 
 
-static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius) {
+static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius,
+                       int* implicit) {
   tireConfig cfg;
   if (read_config(m, instance, &cfg)) return -1;
   const skidsteerTireFloor* floor = &kFloors[cfg.choice[ATTR_FLOOR]];
@@ -292,6 +318,7 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   p->lambda_max = cfg.value[ATTR_LAMBDA_MAX];
   p->relay = cfg.choice[ATTR_CONTACT_POINT] == 1;
   *radius = cfg.value[ATTR_RADIUS];
+  *implicit = cfg.choice[ATTR_COUPLING] == 1;
   return 0;
 }
 
@@ -320,6 +347,13 @@ static void free_instance(tireInstance* ti) {
   free(ti->wheel_geom);
   free(ti->radius);
   free(ti->floor_geom);
+  free(ti->touching);
+  free(ti->kinematics);
+  free(ti->jacobian);
+  free(ti->force);
+  free(ti->same_branch);
+  free(ti->scratch);
+  free(ti->rows);
   free(ti);
 }
 
@@ -518,6 +552,9 @@ static int tire_nsensordata(const mjModel* m, int instance, int sensor_id) {
 }
 
 
+static size_t implicit_scratch_size(int nv, int n, int ne, int nw);
+
+
 static int tire_init(const mjModel* m, mjData* d, int instance) {
   tireInstance* ti = calloc(1, sizeof(tireInstance));
   if (!ti) {
@@ -525,8 +562,31 @@ static int tire_init(const mjModel* m, mjData* d, int instance) {
     return -1;
   }
   mjtNum radius_attr = 0;
-  if (read_params(m, instance, &ti->params, &radius_attr) ||
+  if (read_params(m, instance, &ti->params, &radius_attr, &ti->implicit) ||
       find_wheels_and_floor(m, instance, radius_attr, ti)) {
+    free_instance(ti);
+    return -1;
+  }
+  ti->touching = calloc(ti->nwheel, sizeof(int));
+  ti->kinematics = calloc(ti->nwheel, sizeof(tireKinematics));
+  ti->jacobian = calloc((size_t)2 * ti->nwheel * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
+  ti->force = calloc((size_t)3 * ti->nwheel, sizeof(mjtNum));
+  ti->same_branch = calloc((size_t)m->nv * m->nv + 1, 1);
+  if (ti->same_branch) {
+    for (int i = 0; i < m->nv; i++) {
+      for (int j = i; j >= 0; j = m->dof_parentid[j]) {
+        ti->same_branch[i * m->nv + j] = ti->same_branch[j * m->nv + i] = 1;
+      }
+    }
+  }
+  ti->max_equality_rows = 6 * m->neq;  // a weld is the largest equality: 6 rows
+  ti->scratch_size = implicit_scratch_size(m->nv, 2 * ti->nwheel, ti->max_equality_rows,
+                                           ti->nwheel);
+  ti->scratch = calloc(ti->scratch_size, sizeof(mjtNum));
+  ti->rows = calloc(2 * ti->nwheel, sizeof(int));
+  if (!ti->touching || !ti->kinematics || !ti->jacobian || !ti->force || !ti->same_branch ||
+      !ti->scratch || !ti->rows) {
+    mju_warning("%s: out of memory", TIRE_PLUGIN_NAME);
     free_instance(ti);
     return -1;
   }
@@ -551,48 +611,465 @@ static void tire_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data
 }
 
 
-static void tire_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
-  const tireInstance* ti = (const tireInstance*)d->plugin_data[instance];
-  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  int passive = capability_bit & mjPLUGIN_PASSIVE;
-  int sensor = (capability_bit & mjPLUGIN_SENSOR) && ti->sensor_adr >= 0;
+// Applies [N, f_x, f_y] (contact frame rows n, t_x, t_y) at `point` of `body`.
+static void apply_force(const mjModel* m, mjData* d, int body, const mjtNum frame[9],
+                        const mjtNum point[3], const mjtNum force[3]) {
+  mjtNum world[3];
+  mju_scl3(world, frame, force[0]);
+  mju_addToScl3(world, frame + 3, force[1]);
+  mju_addToScl3(world, frame + 6, force[2]);
+  mj_applyFT(m, d, world, NULL, point, body, d->qfrc_passive);
+}
 
+
+static void explicit_forces(const mjModel* m, mjData* d, int instance, tireInstance* ti,
+                            int passive) {
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   for (int w = 0; w < ti->nwheel; w++) {
     tireKinematics k;
     mjtNum frame[9], point[3], force[3] = {0, 0, 0};
     if (wheel_contact(m, d, ti, w, &k, frame, point)) {
       tire_forces(&ti->params, &k, state + TIRE_NSTATE_WHEEL * w, force);
     }
-    if (sensor) {
-      mju_copy3(d->sensordata + ti->sensor_adr + 3 * w, force);
+    mju_copy3(ti->force + 3 * w, force);
+    if (passive && force[0] > 0) apply_force(m, d, ti->wheel_body[w], frame, point, force);
+  }
+}
+
+
+// d(actuator force)/d(actuator velocity) of actuator a, as MuJoCo's implicit
+// integrators take it: the velocity terms of affine gain and bias.
+static mjtNum actuator_velocity_slope(const mjModel* m, const mjData* d, int a) {
+  mjtNum slope = 0;
+  if (m->actuator_biastype[a] == mjBIAS_AFFINE) slope += m->actuator_biasprm[a * mjNBIAS + 2];
+  if (m->actuator_gaintype[a] == mjGAIN_AFFINE) {
+    mjtNum input = 0;
+    if (m->actuator_dyntype[a] == mjDYN_NONE) {
+      input = m->actuator_ctrlnum[a] > 0 ? d->ctrl[m->actuator_ctrladr[a]] : 0;
+    } else if (m->actuator_actnum[a] > 0) {
+      input = d->act[m->actuator_actadr[a] + m->actuator_actnum[a] - 1];
     }
-    if (passive && force[0] > 0) {
-      mjtNum world[3];
-      mju_scl3(world, frame, force[0]);
-      mju_addToScl3(world, frame + 3, force[1]);
-      mju_addToScl3(world, frame + 6, force[2]);
-      mj_applyFT(m, d, world, NULL, point, ti->wheel_body[w], d->qfrc_passive);
+    slope += m->actuator_gainprm[a * mjNGAIN + 2] * input;
+  }
+  return slope;
+}
+
+
+// H = M + h B: the matrix whose inverse maps a step's generalized impulse to
+// its velocity change under the model's integrator.  B is the damping each
+// integrator treats implicitly: joint damping (Euler unless eulerdamp is off,
+// implicit, implicitfast), tendon damping and actuator velocity gains
+// (implicit, implicitfast).  RK4 treats none.  Dense, nv x nv.  Like MuJoCo,
+// which stores these derivatives in the mass matrix's sparsity, it keeps only
+// entries between dofs on one branch of the kinematic tree: a tendon across
+// two sibling wheels damps each wheel implicitly, not their difference.
+static void step_matrix(const mjModel* m, const mjData* d, const char* same_branch, mjtNum h,
+                        mjtNum* H) {
+  int nv = m->nv;
+  int integrator = m->opt.integrator;
+  int implicit = integrator == mjINT_IMPLICIT || integrator == mjINT_IMPLICITFAST;
+  int euler = integrator == mjINT_EULER && !(m->opt.disableflags & mjDSBL_EULERDAMP);
+  int damper = !(m->opt.disableflags & mjDSBL_DAMPER);
+  int actuation = !(m->opt.disableflags & mjDSBL_ACTUATION);
+  mj_fullM(m, d, H);
+  if ((implicit || euler) && damper) {
+    for (int i = 0; i < nv; i++) H[i * nv + i] += h * m->dof_damping[i];
+  }
+  if (implicit && damper) {
+    for (int t = 0; t < m->ntendon; t++) {
+      mjtNum b = m->tendon_damping[t];
+      if (b == 0) continue;
+      int adr = m->ten_J_rowadr[t], nnz = m->ten_J_rownnz[t];
+      for (int i = 0; i < nnz; i++) {
+        for (int j = 0; j < nnz; j++) {
+          int at = m->ten_J_colind[adr + i] * nv + m->ten_J_colind[adr + j];
+          if (same_branch[at]) H[at] += h * b * d->ten_J[adr + i] * d->ten_J[adr + j];
+        }
+      }
+    }
+  }
+  if (implicit && actuation) {
+    for (int a = 0; a < m->nu; a++) {
+      mjtNum slope = actuator_velocity_slope(m, d, a);
+      if (slope == 0) continue;
+      for (int o = m->actuator_outadr[a]; o < m->actuator_outadr[a] + m->actuator_outnum[a];
+           o++) {
+        int adr = d->moment_rowadr[o], nnz = d->moment_rownnz[o];
+        for (int i = 0; i < nnz; i++) {
+          for (int j = 0; j < nnz; j++) {
+            int at = d->moment_colind[adr + i] * nv + d->moment_colind[adr + j];
+            if (same_branch[at]) {
+              H[at] -= h * slope * d->actuator_moment[adr + i] * d->actuator_moment[adr + j];
+            }
+          }
+        }
+      }
     }
   }
 }
 
 
-// Integrates the contact-point states over the step just taken.  The
-// kinematics here (xpos, cvel, geom_xpos) are those of the start of the step,
-// the same that `compute` used for the forces.
+// Row r of the constraint Jacobian, dense (nv numbers).
+static void constraint_row(const mjModel* m, const mjData* d, int r, mjtNum* row) {
+  int nv = m->nv;
+  if (!mj_isSparse(m)) {
+    mju_copy(row, d->efc_J + (size_t)r * nv, nv);
+    return;
+  }
+  mju_zero(row, nv);
+  int adr = d->efc_J_rowadr[r];
+  for (int i = 0; i < d->efc_J_rownnz[r]; i++) row[d->efc_J_colind[adr + i]] = d->efc_J[adr + i];
+}
+
+
+// Solves a x = b in place (b becomes x) by Gaussian elimination with partial
+// pivoting; a (n x n, row-major) is destroyed.  Returns 0, or -1 if singular.
+static int solve_dense(mjtNum* a, mjtNum* b, int n) {
+  for (int c = 0; c < n; c++) {
+    int pivot = c;
+    for (int r = c + 1; r < n; r++) {
+      if (fabs(a[r * n + c]) > fabs(a[pivot * n + c])) pivot = r;
+    }
+    if (fabs(a[pivot * n + c]) < mjMINVAL) return -1;
+    if (pivot != c) {
+      for (int j = 0; j < n; j++) {
+        mjtNum t = a[c * n + j];
+        a[c * n + j] = a[pivot * n + j];
+        a[pivot * n + j] = t;
+      }
+      mjtNum t = b[c];
+      b[c] = b[pivot];
+      b[pivot] = t;
+    }
+    for (int r = c + 1; r < n; r++) {
+      mjtNum f = a[r * n + c] / a[c * n + c];
+      if (f == 0) continue;
+      for (int j = c; j < n; j++) a[r * n + j] -= f * a[c * n + j];
+      b[r] -= f * b[c];
+    }
+  }
+  for (int r = n - 1; r >= 0; r--) {
+    mjtNum sum = b[r];
+    for (int j = r + 1; j < n; j++) sum -= a[r * n + j] * b[j];
+    b[r] = sum / a[r * n + r];
+  }
+  return 0;
+}
+
+
+// Newton iterations of the implicit coupling, and when they stop.
+#define TIRE_MAX_ITERATIONS 20
+#define TIRE_SMALLEST_STEP (1.0 / 64)  // line search: the shortest Newton step tried
+#define TIRE_SLIP_TOLERANCE 1e-10  // m/s: well below any slip the law resolves
+
+
+// The implicit solve's work space: one block allocated per instance at init
+// (plugin_data, not state), handed out in order by take().  The sizes here are
+// the allocations of implicit_forces, in its order.
+static size_t implicit_scratch_size(int nv, int n, int ne, int nw) {
+  size_t size = 9 * nw + 3 * nw + 3 * nv + nv;             // frame, point, jacp, normal
+  size += 2 * nv + n * nv;                                   // other, bias, B
+  size += 2 * ne * nv + ne * ne + ne * (n + 1) + n * nv + nv + 2 * ne;  // equality rows
+  size += nv * nv + n * nv + n * n + nv + n;                 // H, Y, A, velocity, slip_free
+  size += 4 * n + 4 * n + n * n + n;                         // Newton
+  return size;
+}
+
+
+static mjtNum* take(mjtNum** cursor, size_t count) {
+  mjtNum* block = *cursor;
+  *cursor += count;
+  return block;
+}
+
+
+// max |x_i|
+static mjtNum max_abs(const mjtNum* x, int n) {
+  mjtNum largest = 0;
+  for (int i = 0; i < n; i++) largest = mjMAX(largest, fabs(x[i]));
+  return largest;
+}
+
+
+// The tire forces f(u) at the end of the step for slips u (rows x, y per
+// wheel), their slopes, and the residual u_free + h A f(u) - u; returns |.|^2.
+static mjtNum tire_residual(const tireInstance* ti, const mjtNum* state, mjtNum h,
+                            const mjtNum* A, const mjtNum* slip_free, const mjtNum* slip, int n,
+                            mjtNum* force, mjtNum* slope, mjtNum* residual) {
+  for (int w = 0; w < ti->nwheel; w++) {
+    mjtNum f[3] = {0, 0, 0};
+    slope[2 * w] = slope[2 * w + 1] = 0;
+    if (ti->touching[w]) {
+      tireKinematics k = ti->kinematics[w];
+      k.slip_x = slip[2 * w];
+      k.slip_y = slip[2 * w + 1];
+      tire_step_force(&ti->params, &k, h, state + TIRE_NSTATE_WHEEL * w, f, slope + 2 * w);
+    }
+    force[2 * w] = f[1];
+    force[2 * w + 1] = f[2];
+  }
+  mju_mulMatVec(residual, A, force, n, n);
+  mjtNum merit = 0;
+  for (int r = 0; r < n; r++) {
+    residual[r] = slip_free[r] + h * residual[r] - slip[r];
+    merit += residual[r] * residual[r];
+  }
+  return merit;
+}
+
+
+// The implicit coupling.  Unknown: the 2 nwheel rim slips u at the end of the
+// step.  MuJoCo's step maps forces to velocities through H = M + h B (see
+// step_matrix), so with J the contact rows and f the tire forces
+//   u = u_free + h A f(u),   A = J H^-1 J^T,   u_free = J (v + h H^-1 q_other),
+// q_other being every other generalized force of the step (passive, actuator,
+// applied, minus bias; constraint forces are not known yet and left out).
+// f(u) is the tire law's force at the end of the step when the rim slips at u
+// (tire_step_force: contact points advanced, stick/slip decided there).
+// Newton's method on that, with the law's own slopes d f_i / d u_i; the force
+// applied is the last linearization f(u_k) + C (u_{k+1} - u_k), so that the
+// step is a consistent W-method even if the iterations stop early.
+static void implicit_forces(const mjModel* m, mjData* d, int instance, tireInstance* ti) {
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const tireParams* p = &ti->params;
+  int nv = m->nv, nw = ti->nwheel, n = 2 * nw;
+  mjtNum h = m->opt.timestep;
+  mjtNum* J = ti->jacobian;
+
+  mjtNum* cursor = ti->scratch;
+  mjtNum* frame = take(&cursor, 9 * nw);
+  mjtNum* point = take(&cursor, 3 * nw);
+  mjtNum* jacp = take(&cursor, 3 * nv);
+  mju_zero(J, n * nv);
+  mju_zero(ti->force, 3 * nw);
+  int loaded = 0;
+  for (int w = 0; w < nw; w++) {
+    ti->touching[w] = wheel_contact(m, d, ti, w, ti->kinematics + w, frame + 9 * w,
+                                    point + 3 * w);
+    if (ti->touching[w] && tire_normal_force(p, ti->kinematics + w) > 0) {
+      mj_jac(m, d, jacp, NULL, point + 3 * w, ti->wheel_body[w]);
+      mju_mulMatTVec(J + 2 * w * nv, jacp, frame + 9 * w + 3, 3, nv);
+      mju_mulMatTVec(J + (2 * w + 1) * nv, jacp, frame + 9 * w + 6, 3, nv);
+      loaded = 1;
+    }
+  }
+  // the normal forces (explicit: eq. 4.15 at the start of the step) join the
+  // other forces below
+  mjtNum* normal = take(&cursor, nv);
+  mju_zero(normal, nv);
+  for (int w = 0; w < nw; w++) {
+    mjtNum f[3] = {ti->touching[w] ? tire_normal_force(p, ti->kinematics + w) : 0, 0, 0};
+    if (f[0] <= 0) continue;
+    mjtNum world[3];
+    mju_scl3(world, frame + 9 * w, f[0]);
+    mj_applyFT(m, d, world, NULL, point + 3 * w, ti->wheel_body[w], normal);
+  }
+  ti->iterations = 0;
+  if (!loaded) return;
+
+  // Every other generalized force of the step.
+  mjtNum* other = take(&cursor, nv);
+  mjtNum* bias = take(&cursor, nv);
+  mju_add(other, d->qfrc_passive, normal, nv);  // passive so far (not the tires') + N
+  mj_fwdActuation(m, d);                 // MuJoCo computes them again after this stage
+  mju_addTo(other, d->qfrc_actuator, nv);
+  mj_rne(m, d, 0, bias);
+  mju_subFrom(other, bias, nv);
+  mju_addTo(other, d->qfrc_applied, nv);
+  for (int b = 1; b < m->nbody; b++) {
+    const mjtNum* xfrc = d->xfrc_applied + 6 * b;
+    if (xfrc[0] || xfrc[1] || xfrc[2] || xfrc[3] || xfrc[4] || xfrc[5]) {
+      mj_applyFT(m, d, xfrc, xfrc + 3, d->xipos + 3 * b, b, other);
+    }
+  }
+
+  // B: the generalized force per unit tire force, rows J plus the reaction of
+  // the equality constraints (e.g. the belts that make same-side wheels turn
+  // together), which MuJoCo's solver gives, for rows without bounds, as
+  //   lambda = (E M^-1 E^T + R)^-1 (a_ref - E M^-1 q),
+  // linear in the tire forces; its tire-free part joins `other`.  Inequality
+  // rows (limits, contacts other than the tires) are left out.
+  mjtNum* B = take(&cursor, n * nv);
+  mju_copy(B, J, n * nv);
+  int ne = d->ne;
+  if (ne > ti->max_equality_rows) {  // cannot happen: a weld, the largest, has 6 rows
+    mju_warning("%s: %d equality rows, room for %d", TIRE_PLUGIN_NAME, ne,
+                ti->max_equality_rows);
+    ne = 0;
+  }
+  if (ne > 0) {
+    mjtNum* E = take(&cursor, ne * nv);
+    mjtNum* EMinv = take(&cursor, ne * nv);
+    mjtNum* S = take(&cursor, ne * ne);
+    mjtNum* rhs = take(&cursor, ne * (n + 1));
+    mjtNum* JMinv = take(&cursor, n * nv);
+    mjtNum* accel = take(&cursor, nv);
+    for (int i = 0; i < ne; i++) constraint_row(m, d, i, E + i * nv);
+    mj_solveM(m, d, EMinv, E, ne);
+    mj_solveM(m, d, JMinv, J, n);
+    mj_solveM(m, d, accel, other, 1);
+    for (int i = 0; i < ne; i++) {
+      for (int j = 0; j < ne; j++) S[i * ne + j] = mju_dot(E + i * nv, EMinv + j * nv, nv);
+      S[i * ne + i] += d->efc_R[i];
+      const mjtNum* kbip = d->efc_KBIP + 4 * i;
+      mjtNum velocity = mju_dot(E + i * nv, d->qvel, nv);
+      mjtNum aref = -kbip[1] * velocity - kbip[0] * kbip[2] * d->efc_pos[i];
+      // column 0: the tire-free multipliers; column 1 + c: per unit force c
+      rhs[i * (n + 1)] = aref - mju_dot(E + i * nv, accel, nv);
+      for (int c = 0; c < n; c++) rhs[i * (n + 1) + 1 + c] = -mju_dot(EMinv + i * nv, J + c * nv, nv);
+    }
+    mju_cholFactor(S, ne, mjMINVAL);
+    mjtNum* column = take(&cursor, ne);
+    mjtNum* solved = take(&cursor, ne);
+    for (int c = 0; c < n + 1; c++) {
+      for (int i = 0; i < ne; i++) column[i] = rhs[i * (n + 1) + c];
+      mju_cholSolve(solved, S, column, ne);
+      mjtNum* target = c == 0 ? other : B + (c - 1) * nv;
+      for (int i = 0; i < ne; i++) mju_addToScl(target, E + i * nv, solved[i], nv);
+    }
+  }
+
+  // A = J H^-1 B^T and the slips the step would end with without the tires
+  mjtNum* H = take(&cursor, nv * nv);
+  step_matrix(m, d, ti->same_branch, h, H);
+  mju_cholFactor(H, nv, mjMINVAL);
+  mjtNum* Y = take(&cursor, n * nv);
+  for (int r = 0; r < n; r++) mju_cholSolve(Y + r * nv, H, B + r * nv, nv);
+  mjtNum* A = take(&cursor, n * n);
+  for (int r = 0; r < n; r++) {
+    for (int c = 0; c < n; c++) A[r * n + c] = mju_dot(J + r * nv, Y + c * nv, nv);
+  }
+  mjtNum* velocity = take(&cursor, nv);
+  mju_cholSolve(velocity, H, other, nv);
+  mju_scl(velocity, velocity, h, nv);
+  mju_addTo(velocity, d->qvel, nv);
+  mjtNum* slip_free = take(&cursor, n);
+  mju_mulMatVec(slip_free, J, velocity, n, nv);
+
+  // Newton on g(u) = u - u_free - h A f(u) from the start-of-step slips, with a
+  // backtracking line search on |g|^2: f jumps where a contact point breaks
+  // away (static above kinetic friction), and plain Newton can cycle there.
+  mjtNum* slip = take(&cursor, n);
+  mjtNum* force = take(&cursor, n);
+  mjtNum* slope = take(&cursor, n);
+  mjtNum* residual = take(&cursor, n);
+  mjtNum* trial = take(&cursor, 4 * n);  // slips, forces, slopes, residual
+  mjtNum* G = take(&cursor, n * n);
+  mjtNum* step = take(&cursor, n);
+  for (int w = 0; w < nw; w++) {
+    slip[2 * w] = ti->kinematics[w].slip_x;
+    slip[2 * w + 1] = ti->kinematics[w].slip_y;
+  }
+  mjtNum merit = tire_residual(ti, state, h, A, slip_free, slip, n, force, slope, residual);
+  int converged = 0;
+  ti->iterations = 0;
+  for (int it = 0; it < TIRE_MAX_ITERATIONS; it++) {
+    if (max_abs(residual, n) <= TIRE_SLIP_TOLERANCE) {
+      converged = 1;
+      break;
+    }
+    ti->iterations = it + 1;
+    for (int r = 0; r < n; r++) {
+      for (int c = 0; c < n; c++) G[r * n + c] = (r == c) - h * A[r * n + c] * slope[c];
+    }
+    mju_copy(step, residual, n);
+    if (solve_dense(G, step, n)) break;
+    int accepted = 0;
+    for (mjtNum t = 1; t >= TIRE_SMALLEST_STEP; t *= 0.5) {
+      for (int r = 0; r < n; r++) trial[r] = slip[r] + t * step[r];
+      mjtNum trial_merit = tire_residual(ti, state, h, A, slip_free, trial, n, trial + n,
+                                         trial + 2 * n, trial + 3 * n);
+      if (trial_merit <= (1 - 1e-4 * t) * merit) {
+        mju_copy(slip, trial, n);
+        mju_copy(force, trial + n, n);
+        mju_copy(slope, trial + 2 * n, n);
+        mju_copy(residual, trial + 3 * n, n);
+        merit = trial_merit;
+        accepted = 1;
+        break;
+      }
+    }
+    if (!accepted) break;
+  }
+  if (!converged) {
+    // Stopped at a jump of f: apply the force that moves the slips to where
+    // the search stopped, h A f = u - u_free, on the loaded rows.
+    int* rows = ti->rows;
+    int nl = 0;
+    for (int r = 0; r < n; r++) {
+      if (mju_norm(J + r * nv, nv) > 0) rows[nl++] = r;
+    }
+    for (int i = 0; i < nl; i++) {
+      step[i] = slip[rows[i]] - slip_free[rows[i]];
+      for (int j = 0; j < nl; j++) G[i * nl + j] = h * A[rows[i] * n + rows[j]];
+    }
+    if (nl > 0 && !solve_dense(G, step, nl)) {
+      for (int i = 0; i < nl; i++) force[rows[i]] = step[i];
+    }
+  }
+  for (int w = 0; w < nw; w++) {
+    if (!ti->touching[w]) continue;
+    mjtNum* f = ti->force + 3 * w;
+    f[0] = tire_normal_force(p, ti->kinematics + w);
+    if (f[0] <= 0) continue;
+    f[1] = force[2 * w];
+    f[2] = force[2 * w + 1];
+    apply_force(m, d, ti->wheel_body[w], frame + 9 * w, point + 3 * w, f);
+  }
+}
+
+
+static void tire_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+  tireInstance* ti = (tireInstance*)d->plugin_data[instance];
+  if (capability_bit & mjPLUGIN_PASSIVE) {
+    if (ti->implicit) {
+      implicit_forces(m, d, instance, ti);
+    } else {
+      explicit_forces(m, d, instance, ti, 1);
+    }
+    ti->fresh = 1;
+  }
+  if ((capability_bit & mjPLUGIN_SENSOR) && ti->sensor_adr >= 0) {
+    // the forces applied at this step; without passive forces (disabled), the
+    // forces the law would apply
+    if (!ti->fresh) explicit_forces(m, d, instance, ti, 0);
+    mju_copy(d->sensordata + ti->sensor_adr, ti->force, 3 * ti->nwheel);
+  }
+}
+
+
+// Integrates the contact-point states over the step just taken.  Explicit
+// coupling: with the kinematics of the start of the step (xpos, cvel and
+// geom_xpos are still those here), the same that `compute` used for the
+// forces.  Implicit coupling: with the rim slips at the end of the step, the
+// contact rows of `compute` times the new qvel, so that stick and slip are
+// decided on the velocities the step ended with.
 static void tire_advance_cb(const mjModel* m, mjData* d, int instance) {
-  const tireInstance* ti = (const tireInstance*)d->plugin_data[instance];
+  tireInstance* ti = (tireInstance*)d->plugin_data[instance];
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  int nv = m->nv;
   for (int w = 0; w < ti->nwheel; w++) {
     tireKinematics k;
     mjtNum frame[9], point[3];
     mjtNum* st = state + TIRE_NSTATE_WHEEL * w;
-    if (wheel_contact(m, d, ti, w, &k, frame, point)) {
+    int touching;
+    if (ti->implicit && ti->fresh) {
+      touching = ti->touching[w];
+      k = ti->kinematics[w];
+      if (touching && tire_normal_force(&ti->params, &k) > 0) {
+        k.slip_x = mju_dot(ti->jacobian + 2 * w * nv, d->qvel, nv);
+        k.slip_y = mju_dot(ti->jacobian + (2 * w + 1) * nv, d->qvel, nv);
+      }
+    } else {
+      touching = wheel_contact(m, d, ti, w, &k, frame, point);
+    }
+    if (touching) {
       tire_advance(&ti->params, &k, m->opt.timestep, st);
     } else {
       tire_reset_state(st);
     }
   }
+  ti->fresh = 0;
 }
 
 

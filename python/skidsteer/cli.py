@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -101,8 +102,8 @@ def _positive(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
     return value
 
 
@@ -189,7 +190,7 @@ def cmd_free_response(args: argparse.Namespace) -> int:
 
 def cmd_pull(args: argparse.Namespace) -> int:
     result = pull(args.direction, args.height, args.wheels, args.slip_velocity,
-                  setup=_setup(args), distance_m=args.distance)
+                  setup=_setup(args), distance_m=args.distance, timestep=args.timestep)
     if args.out:
         trace = np.column_stack([result["trace"]["travel_m"], result["trace"]["force_N"]])
         write_atomically(Path(args.out), lambda tmp: np.savetxt(
@@ -208,7 +209,7 @@ def cmd_pull(args: argparse.Namespace) -> int:
 
 
 def cmd_straight(args: argparse.Namespace) -> int:
-    result = straight(args.speed, args.duration, setup=_setup(args))
+    result = straight(args.speed, args.duration, setup=_setup(args), timestep=args.timestep)
     if args.json:
         _print_json(result)
     else:
@@ -225,7 +226,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 robot=args.model)
     started = time.perf_counter()
     with _backend(args) as backend:
-        run_sweep(Path(args.out), runs, progress=not args.quiet, backend=backend)
+        run_sweep(Path(args.out), runs, progress=not args.quiet, backend=backend,
+                  timestep=args.timestep)
     print(f"{len(runs)} runs in {args.out} ({time.perf_counter() - started:.1f} s)")
     return 0
 
@@ -245,7 +247,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 def cmd_reproduce(args: argparse.Namespace) -> int:
     with _backend(args) as backend:
         report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
-                           progress=not args.quiet, backend=backend)
+                           progress=not args.quiet, backend=backend, timestep=args.timestep)
     print(f"report: {report}")
     return 0
 
@@ -390,12 +392,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wheel slip velocity r*omega when spinning, m/s")
     p.add_argument("--distance", type=float, default=None, help="machine travel, m")
     p.add_argument("--out", help="force-distance trace CSV")
+    _add_timestep(p)
     common(p, build="platform")
     p.set_defaults(func=cmd_pull)
 
     p = sub.add_parser("straight", help="straight line at constant speed (Fig. 6.8)")
     p.add_argument("--speed", type=float, default=1.0, help="v_x*, m/s")
     p.add_argument("--duration", type=float, default=6.0, help="s (the 0.3 m/s^2 ramp takes 3.3 s)")
+    _add_timestep(p)
     common(p)
     p.set_defaults(func=cmd_straight)
 
@@ -411,6 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=float, default=20.0)
     p.add_argument("--format", choices=("csv", "xlsx"), default="csv")
+    _add_timestep(p)
     _add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
@@ -426,6 +431,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="every thesis experiment, report against its figures")
     p.add_argument("--out", required=True, help="directory for report.md, results.json, figures")
     p.add_argument("--quick", action="store_true", help="fewer omegas and shorter runs")
+    _add_timestep(p, None, "the models' own; the free responses' converged step")
     _add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_reproduce)

@@ -6,6 +6,7 @@ skidsteer.load_model("extended", "concrete") by an MjSpec edit, stepped at the
 same time step with the same commands in one process:
 
   plugin  the model as shipped: wheels touch the floor only through skidsteer.tire.
+  plugin_implicit  the same with the tire attribute coupling="implicit" (issue 18).
   native  the same robot without the tire plugin (instance, per-wheel references
           and the tire_forces sensor removed); the wheel cylinders collide with
           the floor natively (contype/conaffinity 1, condim 3, friction
@@ -93,12 +94,14 @@ def bare_edit(spec: mujoco.MjSpec) -> None:
     spec.option.gravity = [0.0, 0.0, 0.0]
 
 
-VARIANTS = {"plugin": None, "native": native_edit, "native_armature": native_armature_edit,
-            "bare": bare_edit}
+VARIANTS = {"plugin": None, "plugin_implicit": None, "native": native_edit,
+            "native_armature": native_armature_edit, "bare": bare_edit}
+TIRE = {"plugin_implicit": {"coupling": "implicit"}}  # tire attributes per variant
 
 
 def prepare(name: str, timestep: float, control: np.ndarray) -> dict:
-    m = skidsteer.load_model("extended", "concrete", timestep=timestep, edit=VARIANTS[name])
+    m = skidsteer.load_model("extended", "concrete", timestep=timestep, edit=VARIANTS[name],
+                             tire=TIRE.get(name))
     d = mujoco.MjData(m)
     settle(m, d, 2.0)
     nstep = len(control)
@@ -153,8 +156,11 @@ def run_timestep(timestep: float, args) -> dict:
                       "wall_s_per_rollout": v["times"], **behaviour(v)}
     ratio_min = rows["plugin"]["us_per_step_min"] / rows["native"]["us_per_step_min"]
     ratio_median = rows["plugin"]["us_per_step_median"] / rows["native"]["us_per_step_median"]
+    implicit_ratio = (rows["plugin_implicit"]["us_per_step_median"]
+                      / rows["plugin"]["us_per_step_median"])
     return {"timestep_s": timestep, "nstep": nstep, "rows": rows,
             "plugin_over_native_min": ratio_min, "plugin_over_native_median": ratio_median,
+            "implicit_over_explicit_median": implicit_ratio,
             "meets_target": ratio_median <= TARGET_RATIO}
 
 
@@ -175,12 +181,13 @@ def print_tables(results: list[dict], args) -> None:
                   f"{med / native:.2f} | {med - bare:+.2f} | {yaw} | "
                   f"{row['ay_std_m_s2']:.3f} | {z[0]:.4f}-{z[1]:.4f} |")
     print("\n| dt (s) | plugin / native (min) | plugin / native (median) | "
-          f"target <= {TARGET_RATIO} |")
-    print("|---|---|---|---|")
+          f"target <= {TARGET_RATIO} | implicit / explicit coupling (median) |")
+    print("|---|---|---|---|---|")
     for r in results:
         print(f"| {r['timestep_s']:g} | {r['plugin_over_native_min']:.2f} | "
               f"{r['plugin_over_native_median']:.2f} | "
-              f"{'met' if r['meets_target'] else 'MISSED'} |")
+              f"{'met' if r['meets_target'] else 'MISSED'} | "
+              f"{r['implicit_over_explicit_median']:.2f} |")
 
 
 def main() -> None:

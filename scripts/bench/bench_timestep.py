@@ -12,7 +12,7 @@ robot on concrete:
                 1 kHz by the package's anti-aliased decimation, analysed by
                 analysis.free_response_features: peak (thesis FFT bin) and refined
                 peak frequency, envelope amplitude.
-  swivels       20 s at each --omegas (default 10, 30, 64 deg/s) through
+  swivels       20 s at each --omegas (default 10, 30, 60 deg/s) through
                 simulation.run_commanded (settle 2 s, firmware ramp), logged at
                 1 kHz (Run.accelerometer_log), analysed by analysis.swivel_features
                 (Appendix A): a_y amplitude (whole record, as Appendix A line 43),
@@ -47,7 +47,7 @@ swivel is 2.2 M steps, ~18 s), well under 10 min.  --quick: dt in
 stability test, no chaos repeat, no half step: a few seconds.
 
     python scripts/bench/bench_timestep.py [--json out.json] [--quick]
-        [--omegas 10 30 64] [--duration 20] [--steps 1e-5 2e-5 ...] [--no-half-step]
+        [--omegas 10 30 60] [--duration 20] [--steps 1e-5 2e-5 ...] [--no-half-step]
         [--tire lambda_max=0.05 ...]
     python scripts/bench/bench_timestep.py --from-json out.json   # reprint the tables
 """
@@ -87,11 +87,12 @@ ONE_G = 9.81
 
 
 TIRE: dict[str, str] = {}  # tire attributes other than the model's (--tire KEY=VALUE)
+SETUP = {"build": "extended", "floor": "concrete"}  # --build, --floor
 
 
 def model(dt: float) -> mujoco.MjModel:
-    """The extended robot on concrete at time step dt, with the --tire attributes."""
-    return skidsteer.load_model("extended", "concrete", timestep=dt, tire=TIRE or None)
+    """The --build robot on the --floor at time step dt, with the --tire attributes."""
+    return skidsteer.load_model(SETUP["build"], SETUP["floor"], timestep=dt, tire=TIRE or None)
 
 
 def log_factor(dt: float) -> int:
@@ -223,7 +224,7 @@ def largest_passing(rows: list[dict], criteria) -> float | None:
 
 def measure(dt: float, args) -> dict:
     started = time.perf_counter()
-    unstable = None if args.quick else unstable_reason(dt, TIRE or None)
+    unstable = None if args.quick else unstable_reason(dt, TIRE or None, **SETUP)
     row: dict = {"dt_s": dt, "unstable": unstable}
     row["free_response"] = free_responses(dt, args.axes)
     row["swivels"] = [swivel(dt, omega, args.duration) for omega in args.omegas]
@@ -312,17 +313,20 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: dt 1e-4, 5e-4, 1e-3; one 4 s swivel; roll only")
     parser.add_argument("--steps", type=float, nargs="+", default=STEPS)
-    parser.add_argument("--omegas", type=float, nargs="+", default=[10.0, 30.0, 64.0])
+    parser.add_argument("--omegas", type=float, nargs="+", default=[10.0, 30.0, 60.0])
     parser.add_argument("--duration", type=float, default=20.0, help="swivel length, s")
     parser.add_argument("--axes", nargs="+", default=list(FREE_RESPONSE_AXES),
                         choices=list(FREE_RESPONSE_AXES))
     parser.add_argument("--from-json", help="only print the tables of a previous --json")
     parser.add_argument("--no-half-step", dest="half_step", action="store_false",
                         help="skip the free responses at half the finest step")
+    parser.add_argument("--build", default="extended", help="robot build (default extended)")
+    parser.add_argument("--floor", default="concrete", help="floor (default concrete)")
     parser.add_argument("--tire", action="append", default=[], metavar="KEY=VALUE",
                         help="a skidsteer.tire attribute for every run, e.g. lambda_max=0.05 "
                              "(repeatable)")
     args = parser.parse_args()
+    SETUP.update(build=args.build, floor=args.floor)
     for item in args.tire:
         key, sep, value = item.partition("=")
         if not sep or not key:
@@ -339,7 +343,7 @@ def main() -> None:
     if args.quick:
         args.steps, args.omegas, args.duration, args.axes = QUICK_STEPS, [30.0], 4.0, ["roll"]
     print(f"machine: {machine()}")
-    print(f"tire attributes: {TIRE or 'the model defaults'}")
+    print(f"tire attributes: {TIRE or 'the model defaults'}; {SETUP['build']} on {SETUP['floor']}")
     load_before = loadavg()
     print(f"load average before: {load_before}", flush=True)
     started = time.perf_counter()
@@ -372,7 +376,7 @@ def main() -> None:
                      tolerances={"frequency_hz": FREQ_TOL_HZ, "amplitude_rel": AMP_TOL,
                                  "amplitude_floor_m_s2": AMPLITUDE_FLOOR,
                                  "band_rms_floor_m_s2": BAND_RMS_FLOOR, "yaw_rate_rel": YAW_TOL},
-                     wall_s=total, tire_attributes=TIRE, **summary, rows=rows, chaos_repeat=repeat,
+                     wall_s=total, tire_attributes=TIRE, setup=SETUP, **summary, rows=rows, chaos_repeat=repeat,
                      half_step_free_responses=half_step)
 
 

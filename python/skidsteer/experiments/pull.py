@@ -97,14 +97,15 @@ DEFAULT_SETUP = Setup(build="platform", floor="concrete")  # Sec. 3.3 pulled the
 def pull(direction: str = "lateral", height_m: float = 0.0, wheels: str = "locked",
          slip_velocity_mps: float = 0.0, *, setup: Setup = DEFAULT_SETUP,
          distance_m: float | None = None, speed_mps: float = MACHINE_SPEED,
-         trace_rate_hz: float = 200.0) -> dict:
+         trace_rate_hz: float = 200.0, timestep: float | None = None) -> dict:
     """The testing-machine pull of Sec. 3.3 / 6.2 on the simulated robot.
 
     The cable (K = 1e6 N/m, D = 4 sqrt(m K), tension only) runs horizontally
     from a point height_m above the floor under the CoM to the machine, which
     moves at speed_mps.  wheels: "locked" (hubs held, Fig. 3.5-3.7, 6.7a) or
     "spinning" (all wheels at slip_velocity_mps / r while a tether holds the
-    robot in x, Fig. 3.5 second part, 6.7b).
+    robot in x, Fig. 3.5 second part, 6.7b).  timestep: the simulation step, s
+    (None: the model's).
     """
     if direction not in ("lateral", "longitudinal"):
         raise ValueError(f"unknown pull direction {direction!r}: use lateral or longitudinal")
@@ -115,14 +116,14 @@ def pull(direction: str = "lateral", height_m: float = 0.0, wheels: str = "locke
     if not 0 <= height_m <= 1.5:
         raise ValueError(f"pull height {height_m} m is outside [0, 1.5] m")
     setup = resolve(setup)
-    base = load_model(setup)
+    base = load_model(setup, timestep=timestep)
     parts = roles_of(base)
     chassis = base.body(parts.chassis).name
     axles = [base.joint(w.joint).name for w in parts.wheels]
     mass = float(base.body_subtreemass[parts.chassis])
     m = load_model(setup, edit=_cable_rig(direction, height_m, wheels, mass,
                                           slip_velocity_mps if wheels == "spinning" else 0.0,
-                                          chassis, axles))
+                                          chassis, axles), timestep=timestep)
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     machine = m.actuator("cable").id
@@ -161,7 +162,8 @@ def pull(direction: str = "lateral", height_m: float = 0.0, wheels: str = "locke
         "direction": direction, "height_m": height_m, "wheels": wheels,
         "slip_velocity_mps": slip_velocity_mps if wheels == "spinning" else 0.0,
         "build": setup.build, "floor": setup.floor, "variant": setup.variant,
-        "machine_speed_mps": speed_mps, "mass_kg": mass, "normal_force_sum_N": normal_sum,
+        "machine_speed_mps": speed_mps, "timestep_s": m.opt.timestep, "mass_kg": mass,
+        "normal_force_sum_N": normal_sum,
     }
     saw = _teeth_and_slopes(travel, force)
     peaks = saw["peaks"]

@@ -13,12 +13,13 @@ DEFAULT_SETUP = Setup(build="extended", floor="concrete")
 
 
 def straight(speed_mps: float = 1.0, duration_s: float = 6.0, *,
-             setup: Setup = DEFAULT_SETUP, tire: dict | None = None) -> dict:
+             setup: Setup = DEFAULT_SETUP, tire: dict | None = None,
+             timestep: float | None = None) -> dict:
     """Straight line at v_x* (Fig. 6.8), ramped in at the firmware's 0.3 m/s^2: the mean
     speed of the last second, the time to 90 % of the command, the wheels' slip (eq.
     2.7), the heading drift and the lateral speed."""
     setup = resolve(setup)
-    m = load_model(setup, tire=tire)
+    m = load_model(setup, tire=tire, timestep=timestep)
     d = mujoco.MjData(m)
     settle(m, d, 1.0)
     drive = DriveGeometry.from_model(m)
@@ -50,7 +51,7 @@ def straight(speed_mps: float = 1.0, duration_s: float = 6.0, *,
     yaw = np.unwrap(2 * np.arctan2(quat[:, 3], quat[:, 0]))
     return {
         "speed_command_mps": speed_mps, "build": setup.build, "floor": setup.floor,
-        "variant": setup.variant, "duration_s": duration_s,
+        "variant": setup.variant, "duration_s": duration_s, "timestep_s": m.opt.timestep,
         "mean_speed_mps": float(v_x[steady].mean()),
         "time_to_90_percent_s": float(t[reach]) if reach is not None else None,
         "steady_slip": float(np.abs(slip[steady]).mean()),

@@ -76,11 +76,14 @@ def _setup(build: str, floor: str = "concrete", variant: str = "ours") -> Setup:
     return Setup(build=build, floor=floor, variant=variant)
 
 
-def free_responses(figure_dir: Path | None) -> dict:
+def free_responses(figure_dir: Path | None, timestep: float | None = None) -> dict:
+    """The free responses at timestep (None: their own converged step)."""
     rows = []
+    step = {} if timestep is None else {"timestep": timestep}
     for variant in ("ours", "thesis"):
         for axis in ("roll", "pitch", "yaw"):
-            r = free_response(axis, _setup("extended", variant=variant), include_signal=True)
+            r = free_response(axis, _setup("extended", variant=variant), include_signal=True,
+                              **step)
             t, x = np.array(r.pop("time_s")), np.array(r.pop("signal_m_s2"))
             if figure_dir is not None and variant == "ours":
                 r["figure"] = str(plots.plot_free_response(
@@ -99,13 +102,15 @@ def _factor(a: float, b: float) -> float:
     return float(max(a / b, b / a)) if a > 0 and b > 0 else float("inf")
 
 
-def pulls() -> dict:
+def pulls(timestep: float | None = None) -> dict:
     lateral = []
     for variant in ("ours", "thesis"):
         for height in PULL_HEIGHTS_M:
-            r = pull("lateral", height, "locked", setup=_setup("platform", variant=variant))
+            r = pull("lateral", height, "locked", setup=_setup("platform", variant=variant),
+                     timestep=timestep)
             lateral.append(r)
-        r = pull("lateral", 0.0, "locked", setup=_setup("platform", "carpet", variant))
+        r = pull("lateral", 0.0, "locked", setup=_setup("platform", "carpet", variant),
+                 timestep=timestep)
         lateral.append(r)
     robot = load_robot()
     for r in lateral:
@@ -118,24 +123,26 @@ def pulls() -> dict:
     spinning = []
     for variant in ("ours", "thesis"):
         for v in SLIP_VELOCITIES_MPS:
-            r = pull("lateral", 0.0, "spinning", v, setup=_setup("platform", variant=variant))
+            r = pull("lateral", 0.0, "spinning", v, setup=_setup("platform", variant=variant),
+                     timestep=timestep)
             r.pop("trace")
             spinning.append(r)
     longitudinal = [pull("longitudinal", 0.0, "locked", setup=_setup("platform", variant=variant),
-                         distance_m=0.04) for variant in ("ours", "thesis")]
+                         distance_m=0.04, timestep=timestep) for variant in ("ours", "thesis")]
     for r in longitudinal:
         r.pop("trace")
     return {"lateral": lateral, "spinning": spinning, "longitudinal": longitudinal}
 
 
-def straight_runs() -> list[dict]:
-    return [straight(1.0, 6.0, setup=_setup("extended", variant=v)) for v in ("ours", "thesis")]
+def straight_runs(timestep: float | None = None) -> list[dict]:
+    return [straight(1.0, 6.0, setup=_setup("extended", variant=v), timestep=timestep)
+            for v in ("ours", "thesis")]
 
 
-def wheel_lift(nthread: int) -> list[dict]:
+def wheel_lift(nthread: int, timestep: float | None = None) -> list[dict]:
     rows = []
     for variant in ("ours", "thesis"):
-        m = load_model(_setup("extended", variant=variant))
+        m = load_model(_setup("extended", variant=variant), timestep=timestep)
         runs = run_batch([m] * len(LIFT_OMEGAS), [(0.0, w) for w in LIFT_OMEGAS], 10.0,
                          nthread=nthread)
         for w, run in zip(LIFT_OMEGAS, runs):
@@ -146,7 +153,7 @@ def wheel_lift(nthread: int) -> list[dict]:
 
 
 def swivel_datasets(out: Path, quick: bool, nthread: int, progress: bool,
-                    backend=None) -> dict:
+                    backend=None, timestep: float | None = None) -> dict:
     """Simulated datasets in the dataset layout (docs/data-format.md), analysed as
     Appendix A."""
     grid = _grid(quick)
@@ -162,7 +169,8 @@ def swivel_datasets(out: Path, quick: bool, nthread: int, progress: bool,
     }
     analyses = {}
     for name, runs in sets.items():
-        run_sweep(data / name, runs, nthread=nthread, progress=progress, backend=backend)
+        run_sweep(data / name, runs, nthread=nthread, progress=progress, backend=backend,
+                  timestep=timestep)
         analyses[name] = analyze_paths(data / name, out / "analysis" / name, figures=False)
     return analyses
 
@@ -388,27 +396,28 @@ def _feature_cause(key: str) -> str:
 # ------------------------------------------------------------------ report
 
 def reproduce(out: Path, quick: bool = False, nthread: int = 2, progress: bool = True,
-              backend=None) -> Path:
+              backend=None, timestep: float | None = None) -> Path:
     """Runs every experiment; writes out/report.md, out/results.json and figures.  The
     swivel sweeps run on backend (simulation.backends; default nthread local threads),
-    the rest here."""
+    the rest here.  timestep: every simulation's step, s (None: the models' own, and the
+    free responses' converged step)."""
     out = Path(out)
     figs = out / "figures"
     figs.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     results: dict = {"quick": quick, "machine": platform.platform(),
-                     "timestep_s": load_model(_setup("extended")).opt.timestep}
-    results["free_response"] = free_responses(figs)
-    results["pull"] = pulls()
+                     "timestep_s": load_model(_setup("extended"), timestep=timestep).opt.timestep}
+    results["free_response"] = free_responses(figs, timestep)
+    results["pull"] = pulls(timestep)
     fig_paths = {"pull_traces": plot_pull_traces(results["pull"]["lateral"],
                                                  figs / "pull_lateral.png"),
                  "pull_spinning": plot_spinning(results["pull"]["spinning"],
                                                 figs / "pull_spinning.png")}
     for r in results["pull"]["lateral"]:
         r.pop("trace")
-    results["straight"] = straight_runs()
-    results["wheel_lift"] = wheel_lift(nthread)
-    analyses = swivel_datasets(out, quick, nthread, progress, backend)
+    results["straight"] = straight_runs(timestep)
+    results["wheel_lift"] = wheel_lift(nthread, timestep)
+    analyses = swivel_datasets(out, quick, nthread, progress, backend, timestep)
     for name, analysis in analyses.items():
         summary = analysis["summary"]
         if not summary:  # every run skipped: the reasons are in results.json

@@ -11,6 +11,8 @@ are the same model.
 
 from __future__ import annotations
 
+import math
+
 import dataclasses
 from pathlib import Path
 from typing import Callable, Mapping
@@ -122,8 +124,8 @@ def load_spec(setup: Setup | str = "extended", floor: str | None = None,
             raise ValueError("the model has no accelerometer to place")
         spec.site(sensor.objname).pos = list(setup.accel_position_m)
     if timestep is not None:
-        if not timestep > 0:
-            raise ValueError(f"timestep must be > 0 s, got {timestep}")
+        if not (math.isfinite(timestep) and timestep > 0):
+            raise ValueError(f"timestep must be a finite number > 0 s, got {timestep!r}")
         spec.option.timestep = timestep
     if edit is not None:
         edit(spec)
