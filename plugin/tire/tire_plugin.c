@@ -202,7 +202,6 @@ typedef struct {
   mjtNum* scratch;        // the implicit solve's work space (scratch_size numbers)
   size_t scratch_size;
   int* rows;              // its loaded contact rows (2 nwheel)
-  int iterations;         // Newton iterations of the last implicit solve
 } tireInstance;
 
 
@@ -821,14 +820,16 @@ static mjtNum tire_residual(const tireInstance* ti, const mjtNum* state, mjtNum 
 // The implicit coupling.  Unknown: the 2 nwheel rim slips u at the end of the
 // step.  MuJoCo's step maps forces to velocities through H = M + h B (see
 // step_matrix), so with J the contact rows and f the tire forces
-//   u = u_free + h A f(u),   A = J H^-1 J^T,   u_free = J (v + h H^-1 q_other),
-// q_other being every other generalized force of the step (passive, actuator,
-// applied, minus bias; constraint forces are not known yet and left out).
+//   u = u_free + h A f(u),   A = J H^-1 B^T,   u_free = J (v + h H^-1 q_other),
+// where B adds to J the equality constraints' reaction to the tire forces and
+// q_other is every other generalized force of the step (passive, actuator,
+// applied, the normal forces, minus bias, plus the equality constraints'
+// tire-free reaction; inequality constraints are not known yet and left out).
 // f(u) is the tire law's force at the end of the step when the rim slips at u
 // (tire_step_force: contact points advanced, stick/slip decided there).
-// Newton's method on that, with the law's own slopes d f_i / d u_i; the force
-// applied is the last linearization f(u_k) + C (u_{k+1} - u_k), so that the
-// step is a consistent W-method even if the iterations stop early.
+// Newton's method on that with the law's own slopes d f_i / d u_i and a
+// backtracking line search; when it stops short of convergence (at a jump of
+// f) the force applied is the one that moves the slips to where it stopped.
 static void implicit_forces(const mjModel* m, mjData* d, int instance, tireInstance* ti) {
   const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const tireParams* p = &ti->params;
@@ -864,7 +865,6 @@ static void implicit_forces(const mjModel* m, mjData* d, int instance, tireInsta
     mju_scl3(world, frame + 9 * w, f[0]);
     mj_applyFT(m, d, world, NULL, point + 3 * w, ti->wheel_body[w], normal);
   }
-  ti->iterations = 0;
   if (!loaded) return;
 
   // Every other generalized force of the step.
@@ -962,13 +962,11 @@ static void implicit_forces(const mjModel* m, mjData* d, int instance, tireInsta
   }
   mjtNum merit = tire_residual(ti, state, h, A, slip_free, slip, n, force, slope, residual);
   int converged = 0;
-  ti->iterations = 0;
   for (int it = 0; it < TIRE_MAX_ITERATIONS; it++) {
     if (max_abs(residual, n) <= TIRE_SLIP_TOLERANCE) {
       converged = 1;
       break;
     }
-    ti->iterations = it + 1;
     for (int r = 0; r < n; r++) {
       for (int c = 0; c < n; c++) G[r * n + c] = (r == c) - h * A[r * n + c] * slope[c];
     }
