@@ -66,8 +66,9 @@ def test_loader_rejects_unknown_names_before_compiling():
         skidsteer.load_model("nowhere.xml")
     with pytest.raises(ValueError, match="unknown tire attribute 'stifness_y'"):
         skidsteer.load_model(tire={"stifness_y": 1})
-    with pytest.raises(ValueError, match="timestep must be > 0"):
-        skidsteer.load_model(timestep=0)
+    for bad in (0, -1e-4, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="timestep must be a finite number > 0 s"):
+            skidsteer.load_model(timestep=bad)
 
 
 def test_wheel_that_also_collides_natively_is_rejected():
