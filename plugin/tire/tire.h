@@ -64,10 +64,6 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 // Advance one wheel's contact-point state by h seconds, implicitly.
 void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state);
 
-// d mu_x / d u_x and d mu_y / d u_y of tire_friction_factors within its
-// current branch (0 where a factor is saturated).
-void tire_friction_slopes(const tireParams* p, const tireKinematics* k, mjtNum slope[2]);
-
 // The force [N, f_x, f_y] on the wheel at the end of a step of h seconds in
 // which the rim slips at k->slip_x, k->slip_y (the contact-point state
 // advanced from `state`, which is left unchanged), and slope[d] = d f_d / d u_d

@@ -17,7 +17,15 @@ mjtNum tire_normal_force(const tireParams* p, const tireKinematics* k) {
 }
 
 
-void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum mu[2]) {
+static mjtNum sign(mjtNum x) {
+  return (mjtNum)((x > 0) - (x < 0));
+}
+
+
+// mu_x, mu_y of eq. 4.12a/b and, when slope is not NULL, d mu_x / d u_x and
+// d mu_y / d u_y within the branch taken (0 where a factor is saturated).
+static void friction(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
+                     mjtNum* slope) {
   mjtNum rolling = fabs(k->rolling_speed);
   mjtNum slip_x = fabs(k->slip_x);
   mjtNum slip_y = fabs(k->slip_y);
@@ -30,14 +38,28 @@ void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum 
     // eq. 4.12a: mu_x = k_s |lambda| with k_s = 1/lambda_max, and eq. 4.12b
     // simplified as in Sec. 4.1: mu_y = |v_y| / (r |omega| lambda_max).
     // lambda < lambda_max <= 1 implies rolling > 0 here.
+    mjtNum scale = rolling * p->lambda_max;
     mu[TIRE_DIR_X] = lambda / p->lambda_max;
-    mu[TIRE_DIR_Y] = fmin(1, slip_y / (rolling * p->lambda_max));
+    mu[TIRE_DIR_Y] = fmin(1, slip_y / scale);
+    if (slope) {
+      slope[TIRE_DIR_X] = sign(k->slip_x) / scale;
+      slope[TIRE_DIR_Y] = slip_y < scale ? sign(k->slip_y) / scale : 0;
+    }
   } else {
     // eq. 4.12a saturated, eq. 4.12b: mu_y = tan(theta) = |v_y| / |Delta v_x|,
     // saturated at 1 (Sec. 4.1); no longitudinal slip at all means full grip.
     mu[TIRE_DIR_X] = 1;
     mu[TIRE_DIR_Y] = slip_x > 0 ? fmin(1, slip_y / slip_x) : 1;
+    if (slope) {
+      slope[TIRE_DIR_X] = 0;
+      slope[TIRE_DIR_Y] = slip_x > 0 && slip_y < slip_x ? sign(k->slip_y) / slip_x : 0;
+    }
   }
+}
+
+
+void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum mu[2]) {
+  friction(p, k, mu, NULL);
 }
 
 
@@ -165,27 +187,6 @@ static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mas
 }
 
 
-static mjtNum sign(mjtNum x) {
-  return (mjtNum)((x > 0) - (x < 0));
-}
-
-
-void tire_friction_slopes(const tireParams* p, const tireKinematics* k, mjtNum slope[2]) {
-  mjtNum rolling = fabs(k->rolling_speed);
-  mjtNum slip_x = fabs(k->slip_x);
-  mjtNum slip_y = fabs(k->slip_y);
-  mjtNum lambda = rolling > 0 ? fmin(1, slip_x / rolling) : 1;
-  if (lambda < p->lambda_max) {
-    mjtNum scale = rolling * p->lambda_max;
-    slope[TIRE_DIR_X] = sign(k->slip_x) / scale;
-    slope[TIRE_DIR_Y] = slip_y < scale ? sign(k->slip_y) / scale : 0;
-  } else {
-    slope[TIRE_DIR_X] = 0;
-    slope[TIRE_DIR_Y] = slip_x > 0 && slip_y < slip_x ? sign(k->slip_y) / slip_x : 0;
-  }
-}
-
-
 static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h,
                           mjtNum* state, mjtNum* slope) {
   mjtNum normal = tire_normal_force(p, k);
@@ -195,8 +196,7 @@ static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h
     return;
   }
   mjtNum mu[2], mu_slope[2] = {0, 0};
-  tire_friction_factors(p, k, mu);
-  if (slope) tire_friction_slopes(p, k, mu_slope);
+  friction(p, k, mu, slope ? mu_slope : NULL);
   const mjtNum stiffness[2] = {p->stiffness_x, p->stiffness_y};
   const mjtNum damping[2] = {p->damping_x, p->damping_y};
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
