@@ -41,11 +41,11 @@ from skidsteer.diagnosis import causes
 from skidsteer.features.extract import STEADY_FROM_S, swivel_features
 from skidsteer.robot import Setup, load_model, roles
 from skidsteer.simulation.drive import DriveGeometry
-from skidsteer.simulation.run import FULLPHYSICS, get_state, settle
+from skidsteer.simulation.run import LOG_RATE_HZ, settle
 
 BAND_HZ = (1.0, 50.0)  # Sec. 3.2's analysis band (Appendix A low-pass at 50 Hz)
 LIFT_ONSET_FRACTION = 0.01  # the issue's "lift fraction > 1 % of the steady window"
-EDGE_SAMPLES = 200  # 0.2 s at 1 kHz cut from each end of the filtered steady window
+EDGE_S = 0.2  # cut from each end of the filtered steady window (the filter's edge transients)
 
 
 def _contact_sites(spec: mujoco.MjSpec) -> list[str]:
@@ -55,7 +55,7 @@ def _contact_sites(spec: mujoco.MjSpec) -> list[str]:
     the contact frame's t_x, t_y)."""
     names = []
     for body in spec.bodies:
-        if any(p for p in [body.plugin] if p and p.active) and body.parent is not None:
+        if body.plugin is not None and body.plugin.active and body.parent is not None:
             cyl = [g for g in body.geoms if g.type in (mujoco.mjtGeom.mjGEOM_CYLINDER,
                                                          mujoco.mjtGeom.mjGEOM_SPHERE)]
             if not cyl:
@@ -68,6 +68,12 @@ def _contact_sites(spec: mujoco.MjSpec) -> list[str]:
                             objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
             names.append(name)
     return names
+
+
+def _band(x: np.ndarray, fs: float) -> np.ndarray:
+    """x band-passed to BAND_HZ along axis 0 (4th-order Butterworth, zero phase)."""
+    sos = signal.butter(4, BAND_HZ, "bandpass", fs=fs, output="sos")
+    return signal.sosfiltfilt(sos, x, axis=0)
 
 
 def _compose(*edits):
@@ -99,23 +105,22 @@ def simulate(setup: Setup, edit, omegas, duration_s: float, nthread: int = 2,
     acc = r.sensor_slice(m, r.accelerometer, "accelerometer")
     vel = [slice(int(m.sensor(n).adr[0]), int(m.sensor(n).adr[0]) + 3) for n in holder["sites"]]
     rows = []
-    decim = max(1, int(round(1e-3 / dt)))
+    decim = max(1, int(round(1 / (LOG_RATE_HZ * dt))))  # the logger's 1 kHz
+    edge = int(round(EDGE_S * LOG_RATE_HZ))
     for k, w in enumerate(omegas):
         t = states[k, :, 0] - initial[k, 0]
         f = sensors[k, :, tire].reshape(nstep, -1, 3)
         v = np.stack([sensors[k, :, s] for s in vel], axis=1)  # (n, nwheel, 3)
         steady = t >= STEADY_FROM_S
         fs = 1 / dt
-        sos = signal.butter(4, BAND_HZ, "bandpass", fs=fs, output="sos")
-        fb = signal.sosfiltfilt(sos, f[steady][:, :, 1:], axis=0)
-        vb = signal.sosfiltfilt(sos, v[steady][:, :, :2], axis=0)
+        fb = _band(f[steady][:, :, 1:], fs)
+        vb = _band(v[steady][:, :, :2], fs)
         p_osc = float(np.mean(np.sum(fb * vb, axis=(1, 2))))
         lift = float((f[steady][:, :, 0] <= 0).any(axis=1).mean())
         time_s, accel = t[::decim], sensors[k, ::decim, acc]
         feats = swivel_features(time_s, accel)
         ss = accel[time_s >= STEADY_FROM_S]
-        ss = signal.sosfiltfilt(signal.butter(4, BAND_HZ, "bandpass", fs=1 / (dt * decim),
-                                              output="sos"), ss, axis=0)[EDGE_SAMPLES:-EDGE_SAMPLES]
+        ss = _band(ss, 1 / (dt * decim))[edge:-edge]
         gyro = sensors[k, :, r.sensor_slice(m, r.gyro, "gyro")] if r.gyro is not None else None
         yaw = float(np.degrees(gyro[steady, 2].mean())) if gyro is not None else float("nan")
         rows.append({
@@ -154,8 +159,8 @@ def stability(setup: Setup, edit, omegas, nthread: int = 2, tire=None,
     datas = [mujoco.MjData(m) for _ in range(nthread)]
     states, _ = mujoco.rollout.rollout(m, datas, np.repeat(settled[None], len(omegas), 0),
                                        controls, nstep=n1)
-    free = r.free_joint if hasattr(r, "free_joint") else 0
-    dof = 1 + m.nq + int(m.jnt_dofadr[free])  # FULLPHYSICS: time, qpos, qvel...
+    # the chassis's free joint; FULLPHYSICS states are time, qpos, qvel, ...
+    dof = 1 + m.nq + int(m.jnt_dofadr[m.body_jntadr[r.chassis]])
     initial = []
     for k in range(len(omegas)):
         s0 = states[k, -1].copy()
