@@ -1,0 +1,107 @@
+"""The thesis's measurements as data (issue 19, item 1): the file is complete, every
+feature it lists is decided by a named decider, the report's numbers come from it,
+and a malformed file is refused naming the entry and the field."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from skidsteer.reports import reproduction, thesis_measurements
+from skidsteer.reports.thesis_measurements import MeasurementsError, load
+
+from test_report import _run, _thesis_like
+
+
+@pytest.fixture(scope="module")
+def measured():
+    return load()
+
+
+def test_every_feature_has_a_source_a_rule_and_a_decider(measured):
+    deciders = {f.decider for f in measured.features}
+    assert deciders == set(reproduction.DECIDERS), "deciders without a feature, or the reverse"
+    for f in measured.features:
+        assert re.search(r"Sec\. \d", f.source), (f.key, f.source)
+        for name in f.thresholds:
+            assert measured.thresholds[name]["reason"].strip(), name
+
+
+def test_the_22_features_of_the_reproduction_report_are_the_files(measured):
+    # the count the README and the mission quote: 22 decided Sec. 3.2 features
+    assert len(measured.feature_keys()) == 22
+    lift = [{"variant": "ours", "omega_deg_s": w, "wheel_lift_fraction": 0.0}
+            for w in reproduction.LIFT_OMEGAS]
+    wheel = {"runs": [dict(_run(w, s, 5.0, 25.0, "high", 0.5, 0.5), mount="wheel")
+                      for s in ("concrete", "carpet") for w in range(2, 20, 2)]}
+    runs = _thesis_like(rms=0.5)["runs"]
+    runs += [dict(r, floor=s) for r in runs for s in ("tile", "carpet")]
+    runs += [dict(r, build="platform") for r in runs if r["floor"] != "tile"]
+    rows = (reproduction.sec_3_2_features({"runs": runs}) +
+            [reproduction.lift_feature(lift, "ours")] +
+            reproduction.wheel_mount_features(wheel))
+    assert sorted(r["feature"] for r in rows) == sorted(measured.feature_keys())
+    for r in rows:
+        entry, floor = measured.feature(r["feature"])
+        assert r["source"] == entry.source and r["statement"] == entry.statement_for(floor)
+
+
+def test_the_reports_constants_are_the_files(measured):
+    assert reproduction.TABLE_5_2["roll"]["peak_hz"] == measured.free_response["roll"]["peak_hz"]
+    assert reproduction.SPIN_STEADY_N == tuple(measured.pull["spinning_steady_N"]["range"])
+    assert reproduction.VIBRATION_FLOOR_M_S2 == measured.threshold("vibration_floor_m_s2")
+    assert reproduction.LIFT_OMEGAS == tuple(measured.threshold("lift_omegas_deg_s"))
+
+
+def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
+    # the deciders read the file's thresholds, not copies: a stricter "usually"
+    # (0.95) fails the two-peak feature on runs that pass it at 0.5
+    analysis = _thesis_like(rms=0.5)
+    key = "low_and_high_below_30_concrete"
+    before = {r["feature"]: r["reproduced"] for r in
+              reproduction.sec_3_2_features(analysis, ("concrete",))}
+    analysis["runs"][0]["top_peaks_hz"]["y"] = [8.0, 6.0, 15.0]  # one run not low+high
+    text = thesis_measurements.default_path().read_text()
+    strict = text.replace('[thresholds.usually_fraction]\nvalue = 0.5',
+                          '[thresholds.usually_fraction]\nvalue = 0.95')
+    assert strict != text
+    path = tmp_path / "strict.toml"
+    path.write_text(strict)
+    monkeypatch.setattr(reproduction, "MEASURED", load(path))
+    after = {r["feature"]: r["reproduced"] for r in
+             reproduction.sec_3_2_features(analysis, ("concrete",))}
+    assert before[key] is True and after[key] is False
+
+
+@pytest.mark.parametrize("edit, named", [
+    (('source = "Table 5.2 (peak frequency, mean and std of 8 trials); Sec. 5.2 (decay rate)"\n',
+      '', 1), "free_response.roll.source"),
+    (("peak_hz = 6.0425", "peak_hz = -6.0", 1), "free_response.roll.peak_hz"),
+    (("concrete = [180.0, 200.0]", "concrete = [200.0, 180.0]", 1),
+     "pull.lateral_first_peak_N.concrete"),
+    (('reason = "Sec. 3.2 defines \\"low\\" as < 10 Hz"', 'reason = ""', 1),
+     "thresholds.low_hz.reason"),
+    (('decider = "high_rises"\n', '', 1), "(high_rises_{floor}).decider"),
+    (('thresholds = ["linear_correlation"]', 'thresholds = ["linearity"]', 1),
+     "(carpet_amplitude_linear).thresholds"),
+    (('floors = ["concrete", "tile"]', 'floors = ["concrete", "gravel"]', 1),
+     "(dominance_switch_{floor}).floors"),
+])
+def test_a_malformed_file_names_its_entry_and_field(tmp_path, edit, named):
+    old, new, count = edit
+    text = thesis_measurements.default_path().read_text()
+    assert old in text, old
+    path = tmp_path / "measurements.toml"
+    path.write_text(text.replace(old, new, count))
+    with pytest.raises(MeasurementsError) as err:
+        load(path)
+    assert "measurements.toml" in str(err.value) and named in str(err.value), str(err.value)
+
+
+def test_the_report_lists_the_rules_and_what_no_rule_decides(measured):
+    md = reproduction._decision_rules()
+    for f in measured.features:
+        assert f.rule in md
+    for u in measured.undecided:
+        assert u["statement"] in md
