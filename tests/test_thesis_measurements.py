@@ -8,6 +8,7 @@ import re
 
 import pytest
 
+from skidsteer.features import signals
 from skidsteer.reports import reproduction, thesis_measurements
 from skidsteer.reports.thesis_measurements import MeasurementsError, load
 
@@ -26,6 +27,9 @@ def test_every_feature_has_a_source_a_rule_and_a_decider(measured):
         assert re.search(r"Sec\. \d", f.source), (f.key, f.source)
         for name in f.thresholds:
             assert measured.thresholds[name]["reason"].strip(), name
+    # no threshold stands in the file without a feature that reads it
+    named = {t for f in measured.features for t in f.thresholds}
+    assert named == set(measured.thresholds)
 
 
 def test_the_22_features_of_the_reproduction_report_are_the_files(measured):
@@ -52,6 +56,9 @@ def test_the_reports_constants_are_the_files(measured):
     assert reproduction.SPIN_STEADY_N == tuple(measured.pull["spinning_steady_N"]["range"])
     assert reproduction.VIBRATION_FLOOR_M_S2 == measured.threshold("vibration_floor_m_s2")
     assert reproduction.LIFT_OMEGAS == tuple(measured.threshold("lift_omegas_deg_s"))
+    # the analysis computes its band features with its own band edges: the same numbers
+    assert signals.LOW_BAND_HZ[1] == measured.threshold("low_hz")
+    assert signals.HIGH_BAND_HZ[0] == measured.threshold("high_hz")
 
 
 def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
@@ -80,8 +87,8 @@ def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
     (("peak_hz = 6.0425", "peak_hz = -6.0", 1), "free_response.roll.peak_hz"),
     (("concrete = [180.0, 200.0]", "concrete = [200.0, 180.0]", 1),
      "pull.lateral_first_peak_N.concrete"),
-    (('reason = "Sec. 3.2 defines \\"low\\" as < 10 Hz"', 'reason = ""', 1),
-     "thresholds.low_hz.reason"),
+    (('reason = "a rank or linear correlation over fewer than 5 points is not a trend"',
+      'reason = " "', 1), "thresholds.min_trend_runs.reason"),
     (('decider = "high_rises"\n', '', 1), "(high_rises_{floor}).decider"),
     (('thresholds = ["linear_correlation"]', 'thresholds = ["linearity"]', 1),
      "(carpet_amplitude_linear).thresholds"),
