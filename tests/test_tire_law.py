@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
 from tire_reference import (
-    Kinematics, TireParams, advance, forces, friction_factors, normal_force, reset_state)
+    Kinematics, TireParams, advance, forces, friction_factors, normal_force, reset_state,
+    sliding_factor)
 
 NORMAL = 70.0  # N, about a quarter of the extended robot's weight
 P = TireParams()
@@ -17,14 +21,15 @@ def loaded(slip_x=0.0, slip_y=0.0, rolling=0.0, rate=0.0) -> Kinematics:
                       slip_x=slip_x, slip_y=slip_y, rolling_speed=rolling)
 
 
-def drag(k: Kinematics, duration_s: float, h: float = 1e-5) -> np.ndarray:
+def drag(k: Kinematics, duration_s: float, h: float = 1e-5,
+         params: TireParams = P) -> np.ndarray:
     """Lateral force on a wheel dragged with fixed kinematics, sampled every step."""
     state = np.zeros(6)
     reset_state(state)
     out = []
     for _ in range(int(duration_s / h)):
-        out.append(forces(P, k, state)[2])
-        advance(P, k, h, state)
+        out.append(forces(params, k, state)[2])
+        advance(params, k, h, state)
     return np.array(out)
 
 
@@ -51,6 +56,32 @@ def test_sustained_slip_feels_kinetic_friction():
     for u in (0.05, 0.5, -2.0):
         f = drag(loaded(slip_y=u), 0.2)
         assert f[-1] == pytest.approx(-np.sign(u) * P.mu_kinetic * NORMAL, rel=1e-9)
+
+
+def test_sustained_slip_with_falling_friction_feels_the_stribeck_curve():
+    # sliding_friction_ratio alpha_s < 1: the kinetic limit falls with the sliding
+    # speed as alpha_s + (1 - alpha_s) exp(-(v / v_S)^2); static friction is unchanged
+    p = dataclasses.replace(P, sliding_friction_ratio=0.6, sliding_velocity=0.1)
+    for u in (0.05, 0.5, -2.0):
+        f = drag(loaded(slip_y=u), 0.2, params=p)
+        expected = P.mu_kinetic * (0.6 + 0.4 * math.exp(-(u / 0.1) ** 2)) * NORMAL
+        assert f[-1] == pytest.approx(-np.sign(u) * expected, rel=1e-9)
+    # alpha_s = 1 is the law of Ch. 4 exactly
+    assert sliding_factor(P, loaded(slip_x=0.3, slip_y=0.2)) == (1.0, (0.0, 0.0))
+
+
+def test_falling_friction_slope_is_the_derivative_of_its_curve():
+    # the slopes the implicit coupling's Newton steps use (they move its speed, not
+    # its answer, so the plugin-vs-reference comparison cannot see them)
+    p = dataclasses.replace(P, sliding_friction_ratio=0.4, sliding_velocity=0.07)
+    k = loaded(slip_x=0.05, slip_y=-0.03)
+    g, grad = sliding_factor(p, k)
+    for i, name in enumerate(("slip_x", "slip_y")):
+        step = 1e-7
+        plus = dataclasses.replace(k, **{name: getattr(k, name) + step})
+        minus = dataclasses.replace(k, **{name: getattr(k, name) - step})
+        numeric = (sliding_factor(p, plus)[0] - sliding_factor(p, minus)[0]) / (2 * step)
+        assert grad[i] == pytest.approx(numeric, rel=1e-6)
 
 
 def test_friction_factors_follow_eq_4_12():

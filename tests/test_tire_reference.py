@@ -11,7 +11,8 @@ import pytest
 from skidsteer.robot import load_spec
 from skidsteer.simulation.run import run_commanded
 from tire_reference import (
-    FLOOR_FRICTION, NSTATE_WHEEL, TireParams, TireReference, friction_factors, wheel_contact)
+    FLOOR_FRICTION, NSTATE_WHEEL, TireParams, TireReference, friction_factors, sliding_factor,
+    wheel_contact)
 
 # Both sides evaluate the same formulas in the same order in double precision;
 # they differ only by libm/numpy rounding and by the operation order of the
@@ -21,7 +22,7 @@ RTOL = 1e-9
 
 
 def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
-                  coupling: str = "implicit") -> dict[str, str]:
+                  coupling: str = "implicit", falling: bool = False) -> dict[str, str]:
     floor = str(rng.choice(list(FLOOR_FRICTION)))
     mu_s = rng.uniform(0.3, 1.2)
     config = {
@@ -41,6 +42,11 @@ def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
         "contact_point": contact_point,
         "coupling": coupling,
     }
+    if falling:
+        # kinetic friction falling with sliding speed (sliding_friction_ratio < 1), its
+        # Stribeck velocity spanning the rim speeds randomize() draws (mm/s to m/s)
+        config["sliding_friction_ratio"] = rng.uniform(0.2, 0.95)
+        config["sliding_velocity"] = 10 ** rng.uniform(-2.5, 0)
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
 
@@ -91,7 +97,7 @@ def compare(m: mujoco.MjModel, ref: TireReference, rng: np.random.Generator, tri
     d = mujoco.MjData(m)
     adr = m.sensor("tire_forces").adr[0]
     nwheel = len(ref.wheels)
-    branches = {"linear": 0, "saturated": 0}
+    branches = {"linear": 0, "saturated": 0, "falling": 0}
     for _ in range(trials):
         randomize(m, d, rng)
         mujoco.mj_forward(m, d)
@@ -100,6 +106,9 @@ def compare(m: mujoco.MjModel, ref: TireReference, rng: np.random.Generator, tri
             if f[0] > 0:
                 k = wheel_contact(m, d, wheel, ref.floors)[0]
                 branches["linear" if friction_factors(ref.params, k)[0] < 1 else "saturated"] += 1
+                sliding = sliding_factor(ref.params, k)[0]
+                ratio = ref.params.sliding_friction_ratio
+                branches["falling"] += ratio + 0.01 * (1 - ratio) < sliding < 0.99
         np.testing.assert_allclose(d.sensordata[adr:adr + 3 * nwheel].reshape(nwheel, 3),
                                    expected, rtol=RTOL, atol=RTOL * 1e3)
         # the plugin is the only passive force in these models
@@ -152,6 +161,21 @@ def test_plugin_equals_reference_on_a_heightfield(seed):
     ref = TireReference(m, TireParams.from_config(config))
     branches = compare(m, ref, rng, trials=60)
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+
+
+@pytest.mark.parametrize("coupling", ["implicit", "explicit"])
+@pytest.mark.parametrize("seed", range(3))
+def test_plugin_equals_reference_with_friction_falling_with_sliding_speed(seed, coupling):
+    rng = np.random.default_rng(300 + seed)
+    config = random_config(rng, coupling=coupling, falling=True)
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    assert ref.params.sliding_friction_ratio < 1
+    branches = compare(m, ref, rng, trials=60)
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+    # the falling branch itself was exercised: loaded wheels whose kinetic limit was
+    # reduced by more than 1 % and yet not down to alpha_s (its flat end)
+    assert branches["falling"] >= 5, branches
 
 
 def test_reference_law_agrees_with_plugin_on_defaults():

@@ -19,6 +19,10 @@ BAD_ATTRIBUTES = [
     ("lambda_max", "0", "must lie in (0, 1]"),
     ("lambda_max", "1.5", "must lie in (0, 1]"),
     ("contact_mass", "0", "must be a finite number > 0"),
+    ("sliding_friction_ratio", "0", "must lie in (0, 1]"),
+    ("sliding_friction_ratio", "1.2", "must lie in (0, 1]"),
+    ("sliding_velocity", "-0.1", "must be a finite number > 0"),
+    ("sliding_velocity", "inf", "must be a finite number > 0"),
     ("radius", "-0.1", "must be > 0"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler

@@ -62,6 +62,10 @@ class TireParams:
     contact_point: str = _DEFAULTS["contact_point"]
     # "implicit": forces solved at the end-of-step slips; "explicit": start-of-step forces
     coupling: str = _DEFAULTS["coupling"]
+    # alpha_s (eq. 2.29b) and v_S, m/s: kinetic friction falls with the rim's sliding
+    # speed v as alpha_s + (1 - alpha_s) exp(-(v / v_S)^2); alpha_s = 1 is off
+    sliding_friction_ratio: float = _DEFAULTS["sliding_friction_ratio"]
+    sliding_velocity: float = _DEFAULTS["sliding_velocity"]
 
     @property
     def stiffness_x(self) -> float:
@@ -188,6 +192,17 @@ def reset_state(state: np.ndarray) -> None:
     state[:] = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0]
 
 
+def sliding_factor(p: TireParams, k: Kinematics) -> tuple[float, tuple[float, float]]:
+    """(g, (d g / d u_x, d g / d u_y)): the falling branch of kinetic friction,
+    g = alpha_s + (1 - alpha_s) exp(-(v / v_S)^2) with v = |(u_x, u_y)|; 1 when off."""
+    if p.sliding_friction_ratio >= 1:
+        return 1.0, (0.0, 0.0)
+    vs2 = p.sliding_velocity ** 2
+    falling = (1 - p.sliding_friction_ratio) * math.exp(-(k.slip_x ** 2 + k.slip_y ** 2) / vs2)
+    return (p.sliding_friction_ratio + falling,
+            (-2 * falling * k.slip_x / vs2, -2 * falling * k.slip_y / vs2))
+
+
 def friction_slopes(p: TireParams, k: Kinematics) -> tuple[float, float]:
     """(d mu_x / d u_x, d mu_y / d u_y) within the branch of friction_factors."""
     rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
@@ -208,6 +223,7 @@ def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.nda
         return np.zeros(2)
     mu = friction_factors(p, k)
     mu_slope = friction_slopes(p, k)
+    sliding, sliding_grad = sliding_factor(p, k)
     step = advance_direction_relay if p.contact_point == "relay" else advance_direction
     slopes = np.zeros(2)
     for direction, (stiffness, damping, drive) in enumerate((
@@ -216,9 +232,10 @@ def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.nda
         slopes[direction] = step(
             stiffness, damping, p.contact_mass,
             p.mu_static * mu[direction] * normal,
-            p.mu_kinetic * mu[direction] * normal,
+            p.mu_kinetic * mu[direction] * sliding * normal,
             drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR],
-            p.mu_kinetic * mu_slope[direction] * normal)
+            p.mu_kinetic * (mu_slope[direction] * sliding
+                            + mu[direction] * sliding_grad[direction]) * normal)
     return slopes
 
 

@@ -26,6 +26,9 @@ typedef struct {
   mjtNum damping_x;        // D_x = series(tread, belt), N s/m (eq. 4.13, 4.14)
   mjtNum contact_mass;     // m_t, contact-point mass, kg (eq. 4.9)
   mjtNum lambda_max;       // slip at which friction saturates (eq. 4.12a)
+  mjtNum sliding_ratio;    // alpha_s: kinetic friction at fast sliding over mu_kinetic (eq. 2.29b);
+                           //   1: off, the law of Ch. 4
+  mjtNum sliding_velocity; // v_S, m/s: Stribeck velocity of the falling branch
   int relay;               // 0: Coulomb contact point (eq. 4.9/4.13, kinetic friction kept);
                            // 1: eq. 6.4 as the thesis simulated it (relay, no kinetic friction)
 } tireParams;

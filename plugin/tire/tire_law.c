@@ -187,6 +187,32 @@ static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mas
 }
 
 
+// The falling branch of kinetic friction (attributes sliding_friction_ratio,
+// sliding_velocity; off at alpha_s = 1): the kinetic limit is multiplied by
+//   g(v) = alpha_s + (1 - alpha_s) exp(-(v / v_S)^2),
+// v = |(u_x, u_y)| the rim's sliding speed over the floor at the contact point, a
+// Stribeck-type curve (Armstrong-Helouvry 1994, exponent 2) that falls from 1 at
+// rest to alpha_s at fast sliding, as rubber's does above its peak (Grosch 1963;
+// Persson 2001) and as eq. 2.29b's sliding branch does in slip.  It multiplies
+// the kinetic limit only: static friction, which holds a contact point at rest
+// over the floor, is unchanged, so kinetic never exceeds static.  grad[d] =
+// d g / d u_d (the implicit coupling's slopes).
+static mjtNum sliding_factor(const tireParams* p, const tireKinematics* k, mjtNum grad[2]) {
+  if (p->sliding_ratio >= 1) {
+    if (grad) grad[0] = grad[1] = 0;
+    return 1;
+  }
+  mjtNum vs2 = p->sliding_velocity * p->sliding_velocity;
+  mjtNum falling = (1 - p->sliding_ratio)
+                   * exp(-(k->slip_x * k->slip_x + k->slip_y * k->slip_y) / vs2);
+  if (grad) {
+    grad[TIRE_DIR_X] = -2 * falling * k->slip_x / vs2;
+    grad[TIRE_DIR_Y] = -2 * falling * k->slip_y / vs2;
+  }
+  return p->sliding_ratio + falling;
+}
+
+
 static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h,
                           mjtNum* state, mjtNum* slope) {
   mjtNum normal = tire_normal_force(p, k);
@@ -197,6 +223,8 @@ static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h
   }
   mjtNum mu[2], mu_slope[2] = {0, 0};
   friction(p, k, mu, slope ? mu_slope : NULL);
+  mjtNum sliding_grad[2];
+  mjtNum sliding = sliding_factor(p, k, sliding_grad);
   const mjtNum stiffness[2] = {p->stiffness_x, p->stiffness_y};
   const mjtNum damping[2] = {p->damping_x, p->damping_y};
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
@@ -204,9 +232,12 @@ static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h
     // eq. 4.10: static and kinetic limits scale with the slip factor
     void (*step)(mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum*,
                  mjtNum*) = p->relay ? advance_direction_relay : advance_direction;
+    // d (mu sliding) / d u within the branch taken (the cross-direction term of
+    // the sliding speed is left to the coupling's line search)
+    mjtNum kinetic_slope = mu_slope[dir] * sliding + mu[dir] * sliding_grad[dir];
     step(stiffness[dir], damping[dir], p->contact_mass,
-         p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * normal,
-         p->mu_kinetic * mu_slope[dir] * normal, drive[dir], h,
+         p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * sliding * normal,
+         p->mu_kinetic * kinetic_slope * normal, drive[dir], h,
          state + dir * TIRE_NSTATE_DIR, slope ? slope + dir : NULL);
   }
 }

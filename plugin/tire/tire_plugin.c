@@ -41,6 +41,8 @@ enum {
   ATTR_CONTACT_POINT,
   ATTR_RADIUS,
   ATTR_COUPLING,
+  ATTR_SLIDING_FRICTION_RATIO,
+  ATTR_SLIDING_VELOCITY,
   TIRE_NATTRIBUTE
 };
 
@@ -125,6 +127,20 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "wheel, stick/slip decided at the end of the step, move the robot (stable to 2 ms, yaw "
     "rate within 1 % at 1 ms; stick-slip vibration amplitudes still need 0.1 ms or less: "
     "README, Time step)"},
+  [ATTR_SLIDING_FRICTION_RATIO] = {
+    "sliding_friction_ratio", "alpha_s", SKIDSTEER_TIRE_NUMBER, 1, "1", 0, 1, 1, 0, 1,
+    "", "", "must lie in (0, 1] (1: friction does not fall with sliding speed)",
+    "eq. 2.29b (the thesis's ref. [4]): sliding friction a fraction alpha_s of the peak; "
+    "rubber's friction falls above a sliding speed (Grosch 1963; Persson 2001); 1 (off): the "
+    "law of Ch. 4, whose kinetic friction does not depend on speed"},
+  [ATTR_SLIDING_VELOCITY] = {
+    "sliding_velocity", "v_S", SKIDSTEER_TIRE_NUMBER, 0.1, "0.1", 0, INFINITY, 1, 0, 1,
+    "", "m/s", POSITIVE,
+    "Stribeck velocity of the falling branch: kinetic friction times alpha_s + (1 - alpha_s) "
+    "exp(-(v/v_S)^2), v the rim's sliding speed; assumed: the order of a swivel's sliding "
+    "speeds (median 0.04, 0.10, 0.14 m/s at 20, 45, 64 deg/s, extended build on concrete, "
+    "mostly lateral), within the mm/s-m/s span where tread rubber's friction peaks "
+    "(Grosch 1963; Persson 2001); used only when alpha_s < 1"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -316,6 +332,8 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   p->contact_mass = cfg.value[ATTR_CONTACT_MASS];
   p->lambda_max = cfg.value[ATTR_LAMBDA_MAX];
   p->relay = cfg.choice[ATTR_CONTACT_POINT] == 1;
+  p->sliding_ratio = cfg.value[ATTR_SLIDING_FRICTION_RATIO];
+  p->sliding_velocity = cfg.value[ATTR_SLIDING_VELOCITY];
   *radius = cfg.value[ATTR_RADIUS];
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
   return 0;
