@@ -77,14 +77,15 @@ def release(m: mujoco.MjModel, d: mujoco.MjData, axis: str) -> None:
 def free_response(axis: str = "roll", setup: Setup = DEFAULT_SETUP, *,
                   tire: dict | None = None, settle_s: float = 2.0,
                   include_signal: bool = False,
-                  timestep: float | None = FREE_RESPONSE_TIMESTEP_S) -> dict:
+                  timestep: float | None = FREE_RESPONSE_TIMESTEP_S,
+                  edit=None) -> dict:
     """Release as Sec. 6.2, analyse as Sec. 5.2: peak frequency and decay rate.  At the
     converged FREE_RESPONSE_TIMESTEP_S unless timestep says otherwise (None: the
-    model's own)."""
+    model's own).  edit: an MjSpec edit applied before compiling (a cause's, e.g.)."""
     if axis not in FREE_RESPONSE_AXES:
         raise ValueError(f"unknown free-response axis {axis!r}: use roll, pitch or yaw")
     setup = resolve(setup)
-    m = load_model(setup, tire=tire, timestep=timestep)
+    m = load_model(setup, tire=tire, timestep=timestep, edit=edit)
     d = mujoco.MjData(m)
     settle(m, d, settle_s)
     release(m, d, axis)
