@@ -111,6 +111,28 @@ def test_the_sweep_command_runs_on_ray(ray_backend, tmp_path, capsys):
     assert ray_backend._ray.is_initialized()
 
 
+def test_ray_map_cancels_only_what_a_consumer_leaves_pending(ray_backend):
+    # all consumed: nothing is cancelled (ray.cancel on a finished task can kill the
+    # driver in Ray 2.60, ray-project/ray#54846); stopped early: the rest is cancelled
+    def _sleep_then(delay_s, value):  # nested: pickled by value for the workers
+        import time
+
+        time.sleep(delay_s)
+        return value
+
+    assert list(ray_backend.map(_sleep_then, [(0.0, i) for i in range(4)])) == [0, 1, 2, 3]
+    results = ray_backend.map(_sleep_then, [(0.0, 0)] + [(3.0, i) for i in range(1, 5)])
+    assert next(results) == 0
+    ray = ray_backend._ray
+    refs = list(ray_backend._last_refs)
+    results.close()
+    for ref in refs[1:]:
+        # uncancelled, each would return its value after 3 s; a running task here
+        # takes its cancellation only when its sleep ends, hence the generous timeout
+        with pytest.raises(ray.exceptions.TaskCancelledError):
+            ray.get(ref, timeout=60)
+
+
 @pytest.fixture(scope="module")
 def slip_dataset(tmp_path_factory):
     from skidsteer.diagnosis.synth import make_dataset

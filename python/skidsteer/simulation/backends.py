@@ -99,12 +99,15 @@ class RayBackend:
         remote = self._remote.get(fn)
         if remote is None:
             remote = self._remote[fn] = self._ray.remote(num_cpus=1)(fn)
-        refs = [remote.remote(*a) for a in args]
+        refs = self._last_refs = [remote.remote(*a) for a in args]
         failures = self._ray.exceptions
+        consumed = 0
         try:
             for ref in refs:
                 try:
-                    yield self._ray.get(ref)
+                    result = self._ray.get(ref)
+                    consumed += 1
+                    yield result
                 except (failures.WorkerCrashedError, failures.RaySystemError,
                         failures.RuntimeEnvSetupError) as err:
                     # an exception of our own code comes through as itself; this is
@@ -115,8 +118,16 @@ class RayBackend:
                         f"{_versions()} with the tire plugin; a worker that cannot start "
                         "says why in the raylet's message above)") from err
         finally:
-            for ref in refs:  # a consumer that stops early leaves nothing running
-                self._ray.cancel(ref)
+            # a consumer that stops early leaves nothing running; but only the tasks
+            # still pending are cancelled: ray.cancel on a task whose result is in but
+            # whose completion the driver has not booked yet kills the driver (Ray's
+            # fatal check "Tried to complete task that was not pending",
+            # ray-project/ray#54846; 2 of 4 runs of the Ray diagnosis test here, Ray 2.60)
+            rest = refs[consumed:]
+            if rest:
+                _, pending = self._ray.wait(rest, num_returns=len(rest), timeout=0)
+                for ref in pending:
+                    self._ray.cancel(ref)
 
     def close(self) -> None:
         if self._started:
