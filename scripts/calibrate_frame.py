@@ -17,7 +17,7 @@ reproduction.py does (skidsteer.experiments.free_response, at its converged
 step) and scored by the largest relative frequency error over the three axes
 (the issue's target: within 10 %, goal 5 %) and the largest decay factor (target
 1.6).  A frame's score is the larger of the two in units of their targets (<= 1: both met;
-the rigid model scores 1.02, its roll frequency +10.2 %).  The prediction
+the rigid model scores 1.01: roll +10.1 %, yaw decay x1.61).  The prediction
 (--predict N) then swivels the extended build on concrete and carpet at the lift-off
 rates with the N best-scoring frames; the platform has no frame, so its swivel is
 the base model's.
@@ -41,9 +41,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import screen_mechanisms  # noqa: E402  (the swivel measurement of the screen)
 from skidsteer.diagnosis import causes  # noqa: E402
+from skidsteer.diagnosis.causes.mast_compliance import (  # noqa: E402
+    DAMPING_RATIO, PITCH_STIFFNESS_RATIO)
 from skidsteer.experiments.free_response import free_response  # noqa: E402
-from skidsteer.reports import thesis_measurements  # noqa: E402
+from skidsteer.reports import reproduction  # noqa: E402  (Table 5.2 and its comparison)
 from skidsteer.robot import Setup  # noqa: E402
+
+MAST = causes.get("mast_compliance")
 
 AXES = ("roll", "pitch", "yaw")
 # the grid over the frame's prior: roll stiffness at 7 log-spaced points of its
@@ -56,33 +60,25 @@ PREDICT_TIMESTEP_S = 2.5e-5  # the screen's converged step for the steady swivel
 
 
 def free_responses(params: dict | None) -> dict:
-    cause = causes.get("mast_compliance")
-    edit = None if params is None else (lambda spec: cause.apply(spec, params, 1))
+    """axis -> {refined_peak_hz, decay_per_s} of the extended robot with this frame (None:
+    rigid), as reproduction.py measures them."""
+    edit = None if params is None else (lambda spec: MAST.apply(spec, params, 1))
     out = {}
     for axis in AXES:
         r = free_response(axis, edit=edit)
-        # the highest peak below the bin spacing, as reproduction.py compares it
-        out[axis] = (float(r["refined_peak_hz"]), float(r["decay_per_s"]))
+        out[axis] = {key: float(r[key]) for key in ("refined_peak_hz", "decay_per_s")}
     return out
 
 
-def normalized(freq_error: float, decay_factor: float, max_freq_error: float,
-               max_decay_factor: float) -> float:
-    """One number per frame: the larger of the frequency error and the decay factor, each
-    in units of its target (<= 1: both targets met; the rigid model is at 1.02)."""
-    return max(freq_error / max_freq_error, np.log(decay_factor) / np.log(max_decay_factor))
-
-
-def score(responses: dict, measured) -> tuple[float, float]:
-    """(largest relative frequency error, largest decay factor) over the axes."""
-    freq_error, decay_factor = 0.0, 1.0
-    for axis in AXES:
-        m = measured.free_response[axis]
-        f, decay = responses[axis]
-        freq_error = max(freq_error, abs(f - m["peak_hz"]) / m["peak_hz"])
-        ratio = decay / m["decay_per_s"] if decay > 0 else float("inf")
-        decay_factor = max(decay_factor, ratio, 1 / ratio if ratio > 0 else float("inf"))
-    return freq_error, decay_factor
+def score(responses: dict) -> tuple[float, float, float]:
+    """(largest |frequency error|, largest decay factor) over the axes against Table 5.2,
+    and one number: the larger of the two in units of its target (<= 1: both met)."""
+    compared = [reproduction.against_table_5_2(axis, responses[axis]) for axis in AXES]
+    freq_error = max(abs(c["frequency_error"]) for c in compared)
+    decay_factor = max(c["decay_factor"] for c in compared)
+    total = max(freq_error / reproduction.FREQUENCY_TARGET,
+                np.log(decay_factor) / np.log(reproduction.DECAY_TARGET_FACTOR))
+    return freq_error, decay_factor, total
 
 
 def main(argv=None) -> int:
@@ -93,43 +89,39 @@ def main(argv=None) -> int:
     ap.add_argument("--from-json", type=Path, default=None,
                     help="take the grid's responses from a --json file instead of simulating")
     args = ap.parse_args(argv)
-    measured = thesis_measurements.load()
-    targets = measured.free_response["targets"]
-    max_freq_error, max_decay_factor = (targets["frequency_relative_error"],
-                                        targets["decay_factor"])
-    cause = causes.get("mast_compliance")
-    roll = cause.main
-    damping, ratio_param = cause.held
     t0 = time.time()
     if args.from_json:
-        rows = [(r["frame"], r["parameters"], {a: tuple(v) for a, v in r["responses"].items()})
+        rows = [(r["frame"], r["parameters"], r["responses"])
                 for r in json.loads(args.from_json.read_text())]
     else:
         rows = [("rigid (base model)", None, free_responses(None))]
-        for u, ratio, zeta in itertools.product(np.linspace(0, 1, ROLL_POINTS), RATIOS,
-                                                (damping.low, damping.value, damping.high)):
-            k = float(roll.from_unit(u))
-            params = cause.parameters(k, {damping.name: zeta, ratio_param.name: ratio})
+        for u, ratio, zeta in itertools.product(
+                np.linspace(0, 1, ROLL_POINTS), RATIOS,
+                (DAMPING_RATIO.low, DAMPING_RATIO.value, DAMPING_RATIO.high)):
+            k = float(MAST.main.from_unit(u))
+            params = MAST.parameters(k, {DAMPING_RATIO.name: zeta,
+                                         PITCH_STIFFNESS_RATIO.name: ratio})
             rows.append((f"{k:.0f} N m/rad, pitch x{ratio:g}, zeta {zeta:.2g}", params,
                          free_responses(params)))
             print(rows[-1][0], rows[-1][2], f"{time.time() - t0:.0f} s", flush=True)
-    scored = [(label, params, resp, *score(resp, measured)) for label, params, resp in rows]
-    scored = [(*r, normalized(r[3], r[4], max_freq_error, max_decay_factor)) for r in scored]
+    scored = [(label, params, resp, *score(resp)) for label, params, resp in rows]
     # the prediction uses the frames that fit Table 5.2 best, whether or not they meet
     # both targets (the rigid model itself misses them narrowly): the table says which
     best = sorted([r for r in scored if r[1] is not None], key=lambda r: r[5])
+    measured = reproduction.TABLE_5_2
     lines = [f"`python scripts/calibrate_frame.py {' '.join(argv or sys.argv[1:])}`", "",
              "Fitted set: Table 5.2 (free responses of the extended robot at rest; "
              "measured roll/pitch/yaw "
-             + ", ".join(f"{measured.free_response[a]['peak_hz']:.2f} Hz, "
-                         f"{measured.free_response[a]['decay_per_s']:g}/s" for a in AXES)
-             + f").  Targets: frequencies within {max_freq_error:.0%}, "
-               f"decay rates within a factor {max_decay_factor:g}.", "",
+             + ", ".join(f"{measured[a]['peak_hz']:.2f} Hz, "
+                         f"{measured[a]['decay_per_s']:g}/s" for a in AXES)
+             + f").  Targets: frequencies within {reproduction.FREQUENCY_TARGET:.0%}, "
+               f"decay rates within a factor {reproduction.DECAY_TARGET_FACTOR:g}.", "",
              "| frame | roll (Hz, 1/s) | pitch (Hz, 1/s) | yaw (Hz, 1/s) | "
              "largest frequency error | largest decay factor | score (<= 1: both met) |",
              "|---|---|---|---|---|---|---|"]
     for label, _, resp, ferr, dfac, total in scored:
-        cells = [f"{resp[a][0]:.2f}, {resp[a][1]:.2f}" for a in AXES]
+        cells = [f"{resp[a]['refined_peak_hz']:.2f}, {resp[a]['decay_per_s']:.2f}"
+                 for a in AXES]
         lines.append(f"| {label} | " + " | ".join(cells) +
                      f" | {ferr:.1%} | {dfac:.2f} | {total:.2f} |")
     if args.json:
@@ -142,7 +134,7 @@ def main(argv=None) -> int:
                   "| frame | floor | omega (deg/s) | steady a_y amplitude (m/s^2) | "
                   "lift fraction | mean yaw rate (deg/s) | P_osc (W) |", "|---|---|---|---|---|---|---|"]
         for label, params, *_ in best[:args.predict]:
-            edit = (lambda spec, p=params: cause.apply(spec, p, 1))
+            edit = (lambda spec, p=params: MAST.apply(spec, p, 1))
             for floor, omegas in PREDICT_OMEGAS.items():
                 for row in screen_mechanisms.simulate(Setup(build="extended", floor=floor),
                                                       edit, omegas, 14.0,

@@ -27,6 +27,7 @@ platform a_y amplitude at 45 deg/s; lift between 56 and 72 deg/s, none at 48).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -38,6 +39,7 @@ import numpy as np
 from scipy import signal
 
 from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.causes.mast_compliance import DAMPING_RATIO as MAST_DAMPING_RATIO
 from skidsteer.features.extract import STEADY_FROM_S, swivel_features
 from skidsteer.robot import Setup, load_model, roles
 from skidsteer.simulation.drive import DriveGeometry
@@ -145,7 +147,7 @@ def stability(setup: Setup, edit, omegas, nthread: int = 2, tire=None,
               timestep: float | None = None, kick_rad_s: float = KICK_RAD_S) -> list[dict]:
     """The steady swivel's least-damped roll/pitch motion, measured exactly: the state
     after KICK_AT_S is stepped twice, as is and with the chassis's roll and pitch rates
-    raised by KICK_RAD_S; the difference of the two gyro signals is the response to
+    raised by kick_rad_s; the difference of the two gyro signals is the response to
     the kick alone (the simulation is deterministic).  Its envelope's log-linear
     decay rate sigma (1/s; < 0: the steady swivel is unstable and a vibration grows)
     and the frequency of its largest spectral line are reported."""
@@ -203,12 +205,14 @@ SLIDING_FRICTION_RATIO = causes.Parameter(
     source="assumed: rubber's friction has a pronounced maximum in sliding speed and falls "
            "above it (Grosch 1963; Schallamach 1963; Persson 2001) but does not collapse on a "
            "dry floor; the thesis measured kinetic friction only at 1 mm/s (Sec. 3.3), so up "
-           "to a 40 % fall at a swivel's sliding speeds is allowed; 1 is the thesis's law")
+           "to a 40 % fall at a swivel's sliding speeds is allowed; 1 is the thesis's law; "
+           "value: the middle")
 SLIDING_VELOCITY = causes.Parameter(
     "sliding_velocity", 0.01, 0.3, 0.055, log=True,
     source="assumed: the friction peak of tread rubber lies between mm/s and m/s (Grosch 1963; "
            "Persson 2001); 0.01-0.3 m/s spans the swivel's sliding speeds (median 0.04-0.14 "
-           "m/s at 20-64 deg/s, extended build on concrete)")
+           "m/s at 20-64 deg/s, extended build on concrete); value: the geometric middle, "
+           "rounded")
 FALLING = "falling_friction"
 
 
@@ -238,19 +242,21 @@ DRIVE_GAIN = causes.Parameter(
     source="assumed: no public value of the P3-AT firmware's gains in SI units (ARIA reads "
            "TransKP/KV/KI from the robot's flash in firmware units); from the model's stiff "
            "servo (100) down to a loop 10x softer, whose proportional term alone lets a "
-           "side's steady swivel torque (8-10 N m) slow the wheels by ~1 rad/s")
+           "side's steady swivel torque (8-10 N m) slow the wheels by ~1 rad/s; value: the "
+           "geometric middle, rounded")
 DRIVE_INTEGRAL_CORNER = causes.Parameter(
     "drive_integral_corner_hz", 0.5, 5.0, 1.58, log=True,
     source="assumed: K_i = 2 pi f K_p, the integral's corner f at its top about an octave "
            "below the 4-12 Hz body modes (Table 5.2) and at its bottom still removing the "
-           "proportional droop within a second of the swivel's 14 s")
+           "proportional droop within a second of the swivel's 14 s; value: the geometric "
+           "middle, rounded")
 DRIVE_TORQUE_LIMIT = causes.Parameter(
     "drive_torque_limit_n_m", 9.8, 11.7, 10.7, log=False,
     source="bounded by the thesis's runs and the model: the motors held the extended build's "
            "steady swivel on carpet at 64 deg/s (Sec. 3.2; 9.7 N m per side in the model, "
            "p99 of the steady window at 1e-4 s), and a limit above the start-up peak "
            "(11.7 N m, extended on carpet) never acts; Sec. 3.2: the motors stall when the "
-           "robot hops")
+           "robot hops; value: the middle, rounded")
 DRIVETRAIN = "drivetrain"
 
 
@@ -295,42 +301,59 @@ def drivetrain_list() -> list[tuple[str, dict]]:
     return out
 
 
-def mechanism_list() -> list[tuple[str, dict | None, str, dict]]:
-    """(label, cause parameters or None for the base model, cause name, the mechanism's
-    tire attributes and, under DRIVETRAIN, its drivetrain parameters): every cause at its
-    prior's low end, middle and high end, the falling friction of the tire law and the
-    drivetrain over their priors, and each of these paired with mast_compliance at the
-    middle of its prior."""
-    out = [("base", None, "", {})]
+@dataclasses.dataclass(frozen=True)
+class Mechanism:
+    """One row of the screen: a cause of skidsteer.diagnosis at given parameters (or
+    none: the base model), tire attributes and a drivetrain on top of it."""
+
+    label: str
+    name: str  # what --only selects
+    cause: str | None = None
+    params: dict | None = None
+    tire: dict = dataclasses.field(default_factory=dict)
+    drive: dict | None = None  # drivetrain_edit's arguments
+
+    def edit(self):
+        cause = causes.get(self.cause) if self.cause else None
+        return _compose(drivetrain_edit(**self.drive) if self.drive else None,
+                        (lambda spec: cause.apply(spec, self.params, 1)) if cause else None)
+
+
+def mechanism_list() -> list[Mechanism]:
+    """Every cause at its prior's low end, middle and high end, the falling friction of
+    the tire law and the drivetrain over their priors, each of these paired with
+    mast_compliance at the middle of its prior, and the frame's stiffness x damping."""
+    out = [Mechanism("base", "base")]
     for name, cause in causes.CAUSES.items():
         if name in ("sensor_mount", "friction_levels", "slip_lambda_max"):
             continue  # not vibration sources: a sensor's pose, mu levels, lambda_max are
             # parameters of the base law, screened by the floors and variants
         for where, u in (("low", 0.0), ("mid", 0.5), ("high", 1.0)):
             value = float(cause.main.from_unit(u))
-            out.append((f"{name} {where} ({cause.main.name} = {value:.3g})",
-                        cause.parameters(value, {}), name, {}))
-    for label, tire in falling_friction_list():
-        out.append((label, None, FALLING, tire))
+            out.append(Mechanism(f"{name} {where} ({cause.main.name} = {value:.3g})", name,
+                                 name, cause.parameters(value, {})))
     mast = causes.get("mast_compliance")
     mid = float(mast.main.from_unit(0.5))
+    with_mast = {"cause": "mast_compliance", "params": mast.parameters(mid, {})}
     for label, tire in falling_friction_list():
-        out.append((f"{label} + mast_compliance mid ({mid:.3g})", mast.parameters(mid, {}),
-                    f"{FALLING}+mast_compliance", tire))
+        out.append(Mechanism(label, FALLING, tire=tire))
+    for label, tire in falling_friction_list():
+        out.append(Mechanism(f"{label} + mast_compliance mid ({mid:.3g})",
+                             f"{FALLING}+mast_compliance", tire=tire, **with_mast))
     # the frame's two parameters together: stiffness at five points of its prior, each
     # with the damping ratio at the low end and the middle of its prior (what sets the
     # onset is the balance of the tires' power and the frame's damping)
-    damping = mast.held[0]
     for u in (0.0, 0.25, 0.5, 0.75, 1.0):
         k = float(mast.main.from_unit(u))
-        for zeta in (damping.low, damping.value):
-            out.append((f"mast_compliance grid ({k:.3g} N m/rad, zeta {zeta:.2g})",
-                        mast.parameters(k, {damping.name: zeta}), "mast_compliance_grid", {}))
+        for zeta in (MAST_DAMPING_RATIO.low, MAST_DAMPING_RATIO.value):
+            out.append(Mechanism(f"mast_compliance grid ({k:.3g} N m/rad, zeta {zeta:.2g})",
+                                 "mast_compliance_grid", "mast_compliance",
+                                 mast.parameters(k, {MAST_DAMPING_RATIO.name: zeta})))
     for label, drive in drivetrain_list():
-        out.append((label, None, DRIVETRAIN, {DRIVETRAIN: drive}))
+        out.append(Mechanism(label, DRIVETRAIN, drive=drive))
     for label, drive in drivetrain_list():
-        out.append((f"{label} + mast_compliance mid ({mid:.3g})", mast.parameters(mid, {}),
-                    f"{DRIVETRAIN}+mast_compliance", {DRIVETRAIN: drive}))
+        out.append(Mechanism(f"{label} + mast_compliance mid ({mid:.3g})",
+                             f"{DRIVETRAIN}+mast_compliance", drive=drive, **with_mast))
     return out
 
 
@@ -387,16 +410,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     results = []
     t0 = time.time()
-    for label, params, name, mechanism in mechanism_list():
-        if args.only and (name or "base") not in args.only:
+    for mechanism in mechanism_list():
+        if args.only and mechanism.name not in args.only:
             continue
-        mechanism = dict(mechanism)
-        drive = mechanism.pop(DRIVETRAIN, None)
-        edit = drivetrain_edit(**drive) if drive is not None else None
-        if params is not None:
-            cause = causes.get(name.split("+")[-1].removesuffix("_grid"))
-            edit = _compose(edit, lambda spec, c=cause, p=params: c.apply(spec, p, 1))
-        tire = {**(args.tire or {}), **mechanism} or None
+        label, edit = mechanism.label, mechanism.edit()
+        tire = {**(args.tire or {}), **mechanism.tire} or None
         for build in args.builds:
             setup = Setup(build=build, floor=args.floor)
             try:

@@ -99,6 +99,7 @@ class RayBackend:
         remote = self._remote.get(fn)
         if remote is None:
             remote = self._remote[fn] = self._ray.remote(num_cpus=1)(fn)
+        # the refs of the latest map are kept for inspection (tests/test_backends.py)
         refs = self._last_refs = [remote.remote(*a) for a in args]
         failures = self._ray.exceptions
         consumed = 0

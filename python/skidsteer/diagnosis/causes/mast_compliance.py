@@ -44,7 +44,7 @@ def frame_inertia_about_foot(frame) -> np.ndarray:
 def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
     frame = part(spec, "mast", "mast_compliance")
     roll_k = params["stiffness_n_m_per_rad"]
-    pitch_k = roll_k * params.get("pitch_stiffness_ratio", PITCH_STIFFNESS_RATIO.value)
+    pitch_k = roll_k * params["pitch_stiffness_ratio"]
     inertia = frame_inertia_about_foot(frame)
     for axis, name, i, k in (([1, 0, 0], "frame_roll", 0, roll_k),
                              ([0, 1, 0], "frame_pitch", 1, pitch_k)):
@@ -53,4 +53,5 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
 
 
 CAUSE = Cause("mast_compliance", "the frame rocks on a flexible joint at the mast's foot",
-              STIFFNESS, (DAMPING_RATIO, PITCH_STIFFNESS_RATIO), apply, recovery_factor=1.5, null_value=3000.0)
+              STIFFNESS, (DAMPING_RATIO, PITCH_STIFFNESS_RATIO), apply, recovery_factor=1.5,
+              null_value=3000.0)
