@@ -126,9 +126,11 @@ def test_ray_map_cancels_only_what_a_consumer_leaves_pending(ray_backend):
     ray = ray_backend._ray
     refs = list(ray_backend._last_refs)
     results.close()
-    for ref in refs[1:]:
-        # uncancelled, each would return its value after 3 s; a running task here
-        # takes its cancellation only when its sleep ends, hence the generous timeout
+    # with 2 CPUs, tasks 1 and 2 are running when the consumer stops and 3 and 4 wait
+    # for a CPU: those are cancelled for sure (uncancelled they would return their
+    # value after ~6 s).  A running task gets Ray's cancellation only as an interrupt
+    # that may arrive after it has finished (seen in CI), so it is not asserted on.
+    for ref in refs[3:]:
         with pytest.raises(ray.exceptions.TaskCancelledError):
             ray.get(ref, timeout=60)
 

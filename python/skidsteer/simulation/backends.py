@@ -119,8 +119,9 @@ class RayBackend:
                         f"{_versions()} with the tire plugin; a worker that cannot start "
                         "says why in the raylet's message above)") from err
         finally:
-            # a consumer that stops early leaves nothing running; but only the tasks
-            # still pending are cancelled: ray.cancel on a task whose result is in but
+            # a consumer that stops early leaves nothing queued (waiting tasks are
+            # cancelled, running ones interrupted); but only the tasks still pending
+            # are cancelled: ray.cancel on a task whose result is in but
             # whose completion the driver has not booked yet kills the driver (Ray's
             # fatal check "Tried to complete task that was not pending",
             # ray-project/ray#54846; 2 of 4 runs of the Ray diagnosis test here, Ray 2.60)
