@@ -230,6 +230,28 @@ def falling_friction_list() -> list[tuple[str, dict]]:
     return out
 
 
+# The lateral force coupled to the normal load: the plugin's stiffness_y_load_exponent
+# n (K_y (N / N_0)^n, N_0 the load at which K_y was measured).  Prior, stated before
+# the screen ran:
+LOAD_EXPONENT = causes.Parameter(
+    "stiffness_y_load_exponent", 0.3, 1.0, 0.55, log=True,
+    source="assumed: from a carcass whose lateral stiffness grows weakly with load (0.3) to "
+           "one proportional to it, as the Magic Formula's cornering stiffness is well below "
+           "the tire's rating (1; Pacejka, Tire and Vehicle Dynamics, 2012, Ch. 4); the P3-AT's "
+           "tires carry 56-65 N, far below any rating; value: the geometric middle, rounded")
+LOAD_COUPLING = "load_coupling"
+
+
+def load_coupling_list() -> list[tuple[str, dict]]:
+    """(label, tire attributes): n at the low end, middle and high end of its prior."""
+    out = []
+    for where, u in (("low", 0.0), ("mid", 0.5), ("high", 1.0)):
+        n = float(LOAD_EXPONENT.from_unit(u))
+        out.append((f"{LOAD_COUPLING} n {where} ({n:.2g})",
+                    {"stiffness_y_load_exponent": n}))
+    return out
+
+
 # The drivetrain: the P3-AT's per-side velocity loop with an integral term and a
 # limited torque, in place of the model's stiff proportional servo (kv = 100 N m s/rad,
 # no limit; models/pioneer3at/parts/drive.xml).  The loop is PI with the proportional
@@ -320,8 +342,8 @@ class Mechanism:
 
 
 def mechanism_list() -> list[Mechanism]:
-    """Every cause at its prior's low end, middle and high end, the falling friction of
-    the tire law and the drivetrain over their priors, each of these paired with
+    """Every cause at its prior's low end, middle and high end, the falling friction and
+    the load coupling of the tire law and the drivetrain over their priors, each paired with
     mast_compliance at the middle of its prior, and the frame's stiffness x damping."""
     out = [Mechanism("base", "base")]
     for name, cause in causes.CAUSES.items():
@@ -349,6 +371,11 @@ def mechanism_list() -> list[Mechanism]:
             out.append(Mechanism(f"mast_compliance grid ({k:.3g} N m/rad, zeta {zeta:.2g})",
                                  "mast_compliance_grid", "mast_compliance",
                                  mast.parameters(k, {MAST_DAMPING_RATIO.name: zeta})))
+    for label, tire in load_coupling_list():
+        out.append(Mechanism(label, LOAD_COUPLING, tire=tire))
+    for label, tire in load_coupling_list():
+        out.append(Mechanism(f"{label} + mast_compliance mid ({mid:.3g})",
+                             f"{LOAD_COUPLING}+mast_compliance", tire=tire, **with_mast))
     for label, drive in drivetrain_list():
         out.append(Mechanism(label, DRIVETRAIN, drive=drive))
     for label, drive in drivetrain_list():

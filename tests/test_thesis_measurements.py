@@ -94,6 +94,10 @@ def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
      "(carpet_amplitude_linear).thresholds"),
     (('floors = ["concrete", "tile"]', 'floors = ["concrete", "gravel"]', 1),
      "(dominance_switch_{floor}).floors"),
+    (('omegas = "above_split"', 'omegas = "fast"', 1), "(both_low_above_30_{floor}).omegas"),
+    (("max_omega_deg_s = 40", "max_omega_deg_s = -40", 1), "calibration.max_omega_deg_s"),
+    (('floors = ["concrete", "carpet"]\nmax_omega', 'floors = ["parquet"]\nmax_omega', 1),
+     "calibration.floors"),
 ])
 def test_a_malformed_file_names_its_entry_and_field(tmp_path, edit, named):
     old, new, count = edit
@@ -104,6 +108,31 @@ def test_a_malformed_file_names_its_entry_and_field(tmp_path, edit, named):
     with pytest.raises(MeasurementsError) as err:
         load(path)
     assert "measurements.toml" in str(err.value) and named in str(err.value), str(err.value)
+
+
+def test_the_fitted_set_is_what_item_3_allows_a_calibration_on(measured, tmp_path):
+    # issue 19, item 3: fit only on the extended build, cube on the platform, on concrete
+    # and carpet at omega <= 40 deg/s; a feature whose rule reads any other run (the
+    # platform, tile, omega > 40, the lift-off onset, the cube on a wheel) is predicted
+    fitted = sorted(k for k in measured.feature_keys() if measured.fitted(k))
+    assert fitted == ["high_rises_carpet", "high_rises_concrete",
+                      "low_and_high_below_30_carpet", "low_and_high_below_30_concrete"]
+    # the split follows the file: widen the calibration to tile and the tile twins join
+    text = thesis_measurements.default_path().read_text()
+    wider = text.replace('floors = ["concrete", "carpet"]\nmax_omega',
+                         'floors = ["concrete", "tile", "carpet"]\nmax_omega', 1)
+    assert wider != text
+    assert set(k for k in measured.feature_keys() if _loaded(wider, tmp_path / "wider.toml").fitted(k)) == \
+        set(fitted) | {"high_rises_tile", "low_and_high_below_30_tile"}
+    # a calibration below the split (30 deg/s) holds no feature: every rule reads runs up
+    # to it
+    lower = text.replace("max_omega_deg_s = 40", "max_omega_deg_s = 20", 1)
+    assert not any(_loaded(lower, tmp_path / "lower.toml").fitted(k) for k in measured.feature_keys())
+
+
+def _loaded(text: str, path):
+    path.write_text(text)
+    return load(path)
 
 
 def test_the_report_lists_the_rules_and_what_no_rule_decides(measured):

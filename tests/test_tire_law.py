@@ -84,6 +84,29 @@ def test_falling_friction_slope_is_the_derivative_of_its_curve():
         assert grad[i] == pytest.approx(numeric, rel=1e-6)
 
 
+def test_load_coupled_lateral_stiffness_scales_the_spring_force():
+    # stiffness_y_load_exponent n > 0: the lateral spring is K_y (N / N_0)^n, so at a
+    # given deflection the force follows the load; n = 0 is the law of Ch. 4 exactly
+    assert P.stiffness_y_load_exponent == 0 and P.lateral_stiffness(3 * NORMAL) == P.stiffness_y
+    p = dataclasses.replace(P, stiffness_y_load_exponent=0.7, reference_load=50.0)
+    state = np.zeros(6)
+    reset_state(state)
+    state[3] = 1e-4  # lateral deflection s_y, m; the contact point at rest
+    for normal in (25.0, 50.0, 140.0):
+        k = Kinematics(compression=normal / P.stiffness_z, compression_rate=0.0, slip_x=0.0,
+                       slip_y=0.0, rolling_speed=0.0)
+        expected = -P.stiffness_y * (normal / 50.0) ** 0.7 * 1e-4
+        assert forces(p, k, state)[2] == pytest.approx(expected, rel=1e-12)
+        # a sticking contact point is held until the loaded spring's force reaches
+        # static friction: the stick/slip switch sees the same stiffness
+        s_break = P.mu_static * normal / p.lateral_stiffness(normal)
+        for s, stuck in ((0.99 * s_break, 1.0), (1.01 * s_break, 0.0)):
+            st = state.copy()
+            st[3] = s
+            advance(p, k, 1e-9, st)
+            assert st[5] == stuck
+
+
 def test_friction_factors_follow_eq_4_12():
     lam_max = P.lambda_max
     # locked wheel, sliding any way: full friction both ways

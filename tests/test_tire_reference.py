@@ -22,7 +22,8 @@ RTOL = 1e-9
 
 
 def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
-                  coupling: str = "implicit", falling: bool = False) -> dict[str, str]:
+                  coupling: str = "implicit", falling: bool = False,
+                  load_coupled: bool = False) -> dict[str, str]:
     floor = str(rng.choice(list(FLOOR_FRICTION)))
     mu_s = rng.uniform(0.3, 1.2)
     config = {
@@ -47,6 +48,11 @@ def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
         # Stribeck velocity spanning the rim speeds randomize() draws (mm/s to m/s)
         config["sliding_friction_ratio"] = rng.uniform(0.2, 0.95)
         config["sliding_velocity"] = 10 ** rng.uniform(-2.5, 0)
+    if load_coupled:
+        # the lateral stiffness growing with the load, K_y (N / N_0)^n, over the
+        # attribute's range of exponents and loads around the wheels' static ones
+        config["stiffness_y_load_exponent"] = rng.uniform(0.2, 2.0)
+        config["reference_load"] = rng.uniform(30.0, 120.0)
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
 
@@ -176,6 +182,18 @@ def test_plugin_equals_reference_with_friction_falling_with_sliding_speed(seed, 
     # the falling branch itself was exercised: loaded wheels whose kinetic limit was
     # reduced by more than 1 % and yet not down to alpha_s (its flat end)
     assert branches["falling"] >= 5, branches
+
+
+@pytest.mark.parametrize("coupling", ["implicit", "explicit"])
+@pytest.mark.parametrize("seed", range(3))
+def test_plugin_equals_reference_with_load_coupled_lateral_stiffness(seed, coupling):
+    rng = np.random.default_rng(400 + seed)
+    config = random_config(rng, coupling=coupling, load_coupled=True)
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    assert ref.params.stiffness_y_load_exponent > 0
+    branches = compare(m, ref, rng, trials=60)
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
 
 def test_reference_law_agrees_with_plugin_on_defaults():

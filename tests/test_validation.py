@@ -23,6 +23,9 @@ BAD_ATTRIBUTES = [
     ("sliding_friction_ratio", "1.2", "must lie in (0, 1]"),
     ("sliding_velocity", "-0.1", "must be a finite number > 0"),
     ("sliding_velocity", "inf", "must be a finite number > 0"),
+    ("stiffness_y_load_exponent", "-0.5", "must lie in [0, 2]"),
+    ("stiffness_y_load_exponent", "3", "must lie in [0, 2]"),
+    ("reference_load", "0", "must be a finite number > 0"),
     ("radius", "-0.1", "must be > 0"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler

@@ -66,6 +66,15 @@ class TireParams:
     # speed v as alpha_s + (1 - alpha_s) exp(-(v / v_S)^2); alpha_s = 1 is off
     sliding_friction_ratio: float = _DEFAULTS["sliding_friction_ratio"]
     sliding_velocity: float = _DEFAULTS["sliding_velocity"]
+    # n and N_0, N: the lateral stiffness is K_y (N / N_0)^n; n = 0 is off
+    stiffness_y_load_exponent: float = _DEFAULTS["stiffness_y_load_exponent"]
+    reference_load: float = _DEFAULTS["reference_load"]
+
+    def lateral_stiffness(self, normal: float) -> float:
+        """K_y at normal load N > 0: K_y (N / N_0)^n."""
+        if self.stiffness_y_load_exponent == 0:
+            return self.stiffness_y
+        return self.stiffness_y * (normal / self.reference_load) ** self.stiffness_y_load_exponent
 
     @property
     def stiffness_x(self) -> float:
@@ -121,7 +130,8 @@ def forces(p: TireParams, k: Kinematics, state: np.ndarray) -> np.ndarray:
         return np.array([normal, 0.0, 0.0])
     sx, sy = state[0:NSTATE_DIR], state[NSTATE_DIR:NSTATE_WHEEL]
     fx = -p.damping_x * (k.slip_x - sx[VELOCITY]) - p.stiffness_x * sx[DEFLECTION]
-    fy = -p.damping_y * (k.slip_y - sy[VELOCITY]) - p.stiffness_y * sy[DEFLECTION]
+    fy = (-p.damping_y * (k.slip_y - sy[VELOCITY])
+          - p.lateral_stiffness(normal) * sy[DEFLECTION])
     return np.array([normal, fx, fy])
 
 
@@ -228,7 +238,7 @@ def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.nda
     slopes = np.zeros(2)
     for direction, (stiffness, damping, drive) in enumerate((
             (p.stiffness_x, p.damping_x, k.slip_x),
-            (p.stiffness_y, p.damping_y, k.slip_y))):
+            (p.lateral_stiffness(normal), p.damping_y, k.slip_y))):
         slopes[direction] = step(
             stiffness, damping, p.contact_mass,
             p.mu_static * mu[direction] * normal,

@@ -29,6 +29,8 @@ typedef struct {
   mjtNum sliding_ratio;    // alpha_s: kinetic friction at fast sliding over mu_kinetic (eq. 2.29b);
                            //   1: off, the law of Ch. 4
   mjtNum sliding_velocity; // v_S, m/s: Stribeck velocity of the falling branch
+  mjtNum stiffness_y_load_exponent;  // n: K_y scales as (N / N_0)^n; 0: off, the law of Ch. 4
+  mjtNum reference_load;   // N_0, N: the normal load at which K_y holds
   int relay;               // 0: Coulomb contact point (eq. 4.9/4.13, kinetic friction kept);
                            // 1: eq. 6.4 as the thesis simulated it (relay, no kinetic friction)
 } tireParams;
@@ -58,6 +60,9 @@ mjtNum tire_normal_force(const tireParams* p, const tireKinematics* k);
 
 // Slip-dependent friction factors mu_x, mu_y in [0, 1] (eq. 4.12a/b, saturated).
 void tire_friction_factors(const tireParams* p, const tireKinematics* k, mjtNum mu[2]);
+
+// The lateral stiffness at normal load N > 0: K_y (N / N_0)^n (n = 0: K_y).
+mjtNum tire_lateral_stiffness(const tireParams* p, mjtNum normal);
 
 // Forces on the wheel in the contact frame [N, f_x, f_y] from the state at the
 // start of the step (eq. 4.9, 4.13, 4.15).  state: TIRE_NSTATE_WHEEL numbers.

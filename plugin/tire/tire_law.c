@@ -17,6 +17,22 @@ mjtNum tire_normal_force(const tireParams* p, const tireKinematics* k) {
 }
 
 
+// The normal-load coupling of the lateral stiffness (attributes
+// stiffness_y_load_exponent n, reference_load N_0; off at n = 0): a tire's
+// lateral stiffness grows with the load it carries (the Magic Formula's cornering
+// stiffness, c1 sin(2 atan(N / c2)), is proportional to N well below c2; Pacejka,
+// Tire and Vehicle Dynamics, 2012, Ch. 4), so K_y (N / N_0)^n with K_y the
+// stiffness measured at N_0.  The deflection is the state: a change of load at a
+// given deflection changes the force (the coupling of the lateral force to the
+// wheel's load that the roll and pitch motions modulate).
+mjtNum tire_lateral_stiffness(const tireParams* p, mjtNum normal) {
+  if (p->stiffness_y_load_exponent == 0) {
+    return p->stiffness_y;
+  }
+  return p->stiffness_y * pow(normal / p->reference_load, p->stiffness_y_load_exponent);
+}
+
+
 static mjtNum sign(mjtNum x) {
   return (mjtNum)((x > 0) - (x < 0));
 }
@@ -82,7 +98,7 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
   }
   force[1] = direction_force(p->stiffness_x, p->damping_x, k->slip_x,
                              state + TIRE_DIR_X * TIRE_NSTATE_DIR);
-  force[2] = direction_force(p->stiffness_y, p->damping_y, k->slip_y,
+  force[2] = direction_force(tire_lateral_stiffness(p, normal), p->damping_y, k->slip_y,
                              state + TIRE_DIR_Y * TIRE_NSTATE_DIR);
 }
 
@@ -225,7 +241,7 @@ static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h
   friction(p, k, mu, slope ? mu_slope : NULL);
   mjtNum sliding_grad[2];
   mjtNum sliding = sliding_factor(p, k, sliding_grad);
-  const mjtNum stiffness[2] = {p->stiffness_x, p->stiffness_y};
+  const mjtNum stiffness[2] = {p->stiffness_x, tire_lateral_stiffness(p, normal)};
   const mjtNum damping[2] = {p->damping_x, p->damping_y};
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
   for (int dir = 0; dir < TIRE_NDIR; dir++) {

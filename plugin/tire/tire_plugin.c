@@ -43,6 +43,8 @@ enum {
   ATTR_COUPLING,
   ATTR_SLIDING_FRICTION_RATIO,
   ATTR_SLIDING_VELOCITY,
+  ATTR_STIFFNESS_Y_LOAD_EXPONENT,
+  ATTR_REFERENCE_LOAD,
   TIRE_NATTRIBUTE
 };
 
@@ -141,6 +143,18 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "speeds (median 0.04, 0.10, 0.14 m/s at 20, 45, 64 deg/s, extended build on concrete, "
     "mostly lateral), within the mm/s-m/s span where tread rubber's friction peaks "
     "(Grosch 1963; Persson 2001); used only when alpha_s < 1"},
+  [ATTR_STIFFNESS_Y_LOAD_EXPONENT] = {
+    "stiffness_y_load_exponent", "n", SKIDSTEER_TIRE_NUMBER, 0, "0", 0, 2, 0, 0, 1,
+    "", "", "must lie in [0, 2] (0: K_y does not depend on the load)",
+    "normal-load coupling of the lateral force: K_y (N / N_0)^n, a tire's lateral stiffness "
+    "growing with its load as the Magic Formula's cornering stiffness does, proportional "
+    "to N well below its rating (Pacejka, Tire and Vehicle Dynamics, 2012, Ch. 4); 0 (off): "
+    "the law of Ch. 4, K_y independent of the load"},
+  [ATTR_REFERENCE_LOAD] = {
+    "reference_load", "N_0", SKIDSTEER_TIRE_NUMBER, 56.25, "56.25", 0, INFINITY, 1, 0, 1,
+    "", "N", POSITIVE,
+    "the load at which K_y holds: Sec. 3.3's platform, 225 N on four wheels, in the pulls "
+    "that measured the tire's lateral stiffness; used only when n > 0"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -334,6 +348,8 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   p->relay = cfg.choice[ATTR_CONTACT_POINT] == 1;
   p->sliding_ratio = cfg.value[ATTR_SLIDING_FRICTION_RATIO];
   p->sliding_velocity = cfg.value[ATTR_SLIDING_VELOCITY];
+  p->stiffness_y_load_exponent = cfg.value[ATTR_STIFFNESS_Y_LOAD_EXPONENT];
+  p->reference_load = cfg.value[ATTR_REFERENCE_LOAD];
   *radius = cfg.value[ATTR_RADIUS];
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
   return 0;

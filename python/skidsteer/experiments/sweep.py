@@ -64,13 +64,15 @@ def _stable_seed(*parts) -> int:
 
 def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
               progress: bool = True, backend=None,
-              timestep: float | None = None) -> list[RunInfo]:
+              timestep: float | None = None, edit=None,
+              tire: dict | None = None) -> list[RunInfo]:
     """Simulates the planned runs not yet on disk; writes their files and runs.csv.
 
     Each model is built and settled once; its runs are `sweep_run` tasks on the
     backend (default: nthread threads here).  Files are written here, each as soon
     as its run is back, so an interrupted sweep keeps them.  timestep: the simulation
-    step, s (None: the model's).
+    step, s (None: the model's); edit, tire: an MjSpec edit and tire attributes applied
+    to every model (robot.load_model's), e.g. a vibration mechanism's.
     """
     backend = backend or LocalBackend(nthread)
     out_dir = Path(out_dir)
@@ -85,7 +87,7 @@ def run_sweep(out_dir: Path, runs: list[PlannedRun], nthread: int = 2,
         groups.setdefault((r.info.setup, r.duration_s), []).append(r)
     tasks, planned = [], []
     for (setup, duration), group in groups.items():
-        m = load_model(setup, timestep=timestep)
+        m = load_model(setup, tire=tire, timestep=timestep, edit=edit)
         shared = backend.share(m), backend.share(settle(m, mujoco.MjData(m)))
         for r in group:
             tasks.append((*shared, r.info.v_mps, r.info.omega_deg_s, duration, r.seed))

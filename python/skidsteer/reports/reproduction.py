@@ -148,10 +148,14 @@ def straight_runs(timestep: float | None = None) -> list[dict]:
             for v in ("ours", "thesis")]
 
 
-def wheel_lift(nthread: int, timestep: float | None = None) -> list[dict]:
+def wheel_lift(nthread: int, timestep: float | None = None, variants=("ours", "thesis"),
+               edit=None, tire: dict | None = None) -> list[dict]:
+    """The extended build's lift fraction and mean yaw rate at LIFT_OMEGAS (10 s each),
+    per variant; edit, tire: a mechanism's (robot.load_model's)."""
     rows = []
-    for variant in ("ours", "thesis"):
-        m = load_model(_setup("extended", variant=variant), timestep=timestep)
+    for variant in variants:
+        m = load_model(_setup("extended", variant=variant), tire=tire, timestep=timestep,
+                       edit=edit)
         runs = run_batch([m] * len(LIFT_OMEGAS), [(0.0, w) for w in LIFT_OMEGAS], 10.0,
                          nthread=nthread)
         for w, run in zip(LIFT_OMEGAS, runs):
@@ -367,7 +371,8 @@ def _decide(features, data, floors=None) -> list[dict]:
             value, ok, evidence = decided
             out.append({"feature": key, "statement": feature.statement_for(floor),
                         "value": value, "reproduced": None if ok is None else bool(ok),
-                        "evidence": evidence, "source": feature.source})
+                        "evidence": evidence, "source": feature.source,
+                        "set": "fitted" if MEASURED.fitted(key) else "predicted"})
     return out
 
 
@@ -396,6 +401,55 @@ def lift_feature(rows: list[dict], variant: str) -> dict:
 
 def _num(x):
     return None if x is None or not np.isfinite(x) else float(x)
+
+
+# ------------------------------------------------------------------ a mechanism's features
+
+MECHANISM_GRID = {"omegas": tuple(range(4, 65, 4)), "wheel_omegas": tuple(range(2, 21, 2))}
+
+
+def mechanism_features(out: Path, edits: dict, tire: dict | None = None,
+                       timestep: float | None = None, grid: dict | None = None,
+                       nthread: int = 2, progress: bool = True, backend=None) -> dict:
+    """Every Sec. 3.2 feature and the lift-off onset of one vibration mechanism (issue 19).
+
+    edits: build -> the MjSpec edit of the mechanism on that build (None: the build as
+    it is, e.g. the platform for a mechanism of the frame, which it does not carry);
+    tire: tire attributes of the mechanism on every build.  The swivel runs (extended
+    on concrete, tile and carpet, platform on concrete and carpet, the cube on a wheel
+    of the extended build on concrete and carpet; grid: omegas and wheel_omegas, deg/s,
+    default MECHANISM_GRID) go to out/data, their analyses to out/analysis.  Returns
+    {"features": rows as sec_3_2_features's, each with its "set" (fitted/predicted),
+    "lift": wheel_lift's rows, "summary": per build and floor the steady a_y amplitude
+    per omega}.
+    """
+    out = Path(out)
+    grid = grid or MECHANISM_GRID
+    # directory -> (build, planned runs); the cube on the platform unless named
+    runs = {"extended": ("extended", plan(grid["omegas"], ["concrete", "tile", "carpet"],
+                                          ["extended"])),
+            "platform": ("platform", plan(grid["omegas"], ["concrete", "carpet"],
+                                          ["platform"])),
+            "extended_cube_on_wheel": ("extended", plan(grid["wheel_omegas"],
+                                                        ["concrete", "carpet"], ["extended"],
+                                                        mount="wheel"))}
+    data = out / "data"
+    for name, (build, planned) in runs.items():
+        run_sweep(data / name, planned, nthread=nthread, progress=progress, backend=backend,
+                  timestep=timestep, edit=edits.get(build), tire=tire)
+    swivel = analyze_paths([data / "extended", data / "platform"], out / "analysis" / "swivel",
+                           figures=False)
+    wheel = analyze_paths(data / "extended_cube_on_wheel", out / "analysis" / "wheel",
+                          figures=False)
+    lift = wheel_lift(nthread, timestep, variants=("ours",), edit=edits.get("extended"),
+                      tire=tire)
+    features = sec_3_2_features(swivel) + [lift_feature(lift, "ours")]
+    features += wheel_mount_features(wheel)
+    amplitude = {}
+    for r in swivel["runs"]:
+        amplitude.setdefault(f"{r['build']} {r['floor']}", {})[r["omega_deg_s"]] = _amp(r)
+    return {"features": features, "lift": lift, "amplitude_m_s2": amplitude,
+            "skipped": swivel.get("skipped", []) + wheel.get("skipped", [])}
 
 
 # ------------------------------------------------------------------ causes
@@ -706,11 +760,19 @@ def render(results: dict) -> str:
         t = th.get(r["feature"])
         cause = "" if r["reproduced"] else _feature_cause(r["feature"])
         rows.append([r["statement"], _feature_source(r),
+                     "fitted" if MEASURED.fitted(r["feature"]) else "predicted",
                      "-" if t is None else _verdict(t["reproduced"]) + f" ({t['evidence']})",
                      _verdict(r["reproduced"], bold=True) + f" ({r['evidence']})",
                      _short_cause(cause) if r["reproduced"] is False else ""])
-    md.append(_table(["Sec. 3.2 / 6.2 feature", "source", "thesis model", "ours",
+    md.append(_table(["Sec. 3.2 / 6.2 feature", "source", "set", "thesis model", "ours",
                       "suspected cause"], rows))
+    cal = MEASURED.calibration
+    md.append(f"\nSet: \"fitted\" where every run the feature's rule reads is one a vibration "
+              f"mechanism may be calibrated on ({cal.build} build, cube on the {cal.mount}, "
+              f"{' and '.join(cal.floors)}, omega <= {cal.max_omega_deg_s:g} deg/s; "
+              "issue 19, item 3), \"predicted\" otherwise.  The same features decided on "
+              "each screened mechanism: [mechanism_features.md](mechanism_features.md) "
+              "(`python scripts/mechanism_features.py`).\n")
     md.append(_decision_rules())
     md.append(f"\nCause (for every \"no\" above marked swivel): {MISS_EXPLANATIONS['swivel_vibration']}\n")
     md.append(f"\n{MISS_EXPLANATIONS['relay_limit_cycle']}\n")

@@ -24,6 +24,7 @@ AXES = ("roll", "pitch", "yaw")
 FLOORS = ("concrete", "tile", "carpet")
 BUILDS = ("extended", "platform")
 MOUNTS = ("platform", "wheel")
+OMEGA_SPANS = ("below_split", "above_split", "all", "lift")
 
 
 class MeasurementsError(ValueError):
@@ -43,6 +44,7 @@ class Feature:
     decider: str
     rule: str
     thresholds: tuple[str, ...]
+    omegas: str  # the swivel rates of the runs its rule reads: one of OMEGA_SPANS
 
     def keys(self) -> list[tuple[str, str]]:
         """(expanded key, floor) for each floor."""
@@ -50,6 +52,24 @@ class Feature:
 
     def statement_for(self, floor: str) -> str:
         return self.statement.format(floor=floor)
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The runs a mechanism may be fitted on (issue 19, item 3)."""
+
+    build: str
+    mount: str
+    floors: tuple[str, ...]
+    max_omega_deg_s: float
+    source: str
+
+    def fitted(self, feature: Feature, floor: str, omega_split_deg_s: float) -> bool:
+        """Whether every run the feature's rule reads on this floor is a calibration run
+        (then the feature is in the fitted set; otherwise it is predicted)."""
+        return (feature.build == self.build and feature.mount == self.mount
+                and floor in self.floors and feature.omegas == "below_split"
+                and omega_split_deg_s <= self.max_omega_deg_s)
 
 
 @dataclass(frozen=True)
@@ -61,6 +81,7 @@ class Measurements:
     thresholds: dict  # name -> {"value": ..., "reason": ...}
     features: tuple[Feature, ...]
     undecided: tuple[dict, ...]
+    calibration: Calibration
 
     def threshold(self, name: str):
         return self.thresholds[name]["value"]
@@ -75,6 +96,11 @@ class Measurements:
 
     def feature_keys(self) -> list[str]:
         return [k for f in self.features for k, _ in f.keys()]
+
+    def fitted(self, key: str) -> bool:
+        """Whether the expanded feature key is in the calibration (fitted) set."""
+        feature, floor = self.feature(key)
+        return self.calibration.fitted(feature, floor, self.threshold("omega_split_deg_s"))
 
 
 def default_path() -> Path:
@@ -127,7 +153,8 @@ def load(path: str | Path | None = None) -> Measurements:
     features, seen = [], set()
     for i, entry in enumerate(data.get("features", [])):
         at = f"{where}: features[{i}]" + (f" ({entry.get('key')})" if "key" in entry else "")
-        for field in ("key", "build", "mount", "statement", "source", "decider", "rule"):
+        for field in ("key", "build", "mount", "omegas", "statement", "source", "decider",
+                      "rule"):
             _text(entry, field, at)
         floors = tuple(entry.get("floors") or ())
         if not floors or any(f not in FLOORS for f in floors):
@@ -138,13 +165,16 @@ def load(path: str | Path | None = None) -> Measurements:
             raise MeasurementsError(f"{at}.build must be one of {BUILDS}, got {entry['build']!r}")
         if entry["mount"] not in MOUNTS:
             raise MeasurementsError(f"{at}.mount must be one of {MOUNTS}, got {entry['mount']!r}")
+        if entry["omegas"] not in OMEGA_SPANS:
+            raise MeasurementsError(f"{at}.omegas must be one of {OMEGA_SPANS}, got "
+                                    f"{entry['omegas']!r}")
         named = tuple(entry.get("thresholds") or ())
         unknown = [t for t in named if t not in thresholds]
         if unknown:
             raise MeasurementsError(f"{at}.thresholds: no threshold named {unknown}")
         feature = Feature(entry["key"], floors, entry["build"], entry["mount"],
                           entry["statement"], entry["source"], entry["decider"], entry["rule"],
-                          named)
+                          named, entry["omegas"])
         for key, _ in feature.keys():
             if key in seen:
                 raise MeasurementsError(f"{at}.key: {key!r} appears twice")
@@ -157,8 +187,19 @@ def load(path: str | Path | None = None) -> Measurements:
         for field in ("statement", "source", "reason"):
             _text(entry, field, f"{where}: undecided[{i}]")
         undecided.append(dict(entry))
+    cal = _table(data, "calibration", where)
+    at = f"{where}: calibration"
+    cal_floors = tuple(cal.get("floors") or ())
+    if not cal_floors or any(f not in FLOORS for f in cal_floors):
+        raise MeasurementsError(f"{at}.floors must be some of {FLOORS}, got {cal_floors!r}")
+    if cal.get("build") not in BUILDS:
+        raise MeasurementsError(f"{at}.build must be one of {BUILDS}, got {cal.get('build')!r}")
+    if cal.get("mount") not in MOUNTS:
+        raise MeasurementsError(f"{at}.mount must be one of {MOUNTS}, got {cal.get('mount')!r}")
+    calibration = Calibration(cal["build"], cal["mount"], cal_floors,
+                              _positive(cal, "max_omega_deg_s", at), _text(cal, "source", at))
     return Measurements(path, dict(_table(data, "document", where)), fr, pull, thresholds,
-                        tuple(features), tuple(undecided))
+                        tuple(features), tuple(undecided), calibration)
 
 
 def _table(data: dict, name: str, where: str) -> dict:
