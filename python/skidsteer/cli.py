@@ -20,6 +20,7 @@ import numpy as np
 
 from skidsteer.data.dataset import run_file_name
 from skidsteer.data.files import write_atomically
+from skidsteer.data.imu import is_imu_folder
 from skidsteer.data.recording import DataError, write_run
 from skidsteer.experiments.free_response import FREE_RESPONSE_AXES, free_response
 from skidsteer.experiments.pull import pull
@@ -29,6 +30,7 @@ from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
 from skidsteer.experiments.swivel import run_swivel, swivel_summary
 from skidsteer.reports.analysis import analyze_paths
 from skidsteer.reports.diagnosis import compare, diagnose
+from skidsteer.reports.real_data import diagnose_recordings
 from skidsteer.reports.reproduction import reproduce
 from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
                              robot_names)
@@ -295,19 +297,28 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_verdict(result: dict, *more: str) -> None:
+    """A diagnosis's verdict, cause, reason (and more lines), fitted parameters."""
+    cause = f" cause: {result['cause']}" if result["cause"] else ""
+    print(f"verdict: {result['verdict']}{cause}")
+    print(f"  {result['reason']}")
+    for line in more:
+        print(line)
+    for name, value in result["parameters"].items():
+        interval = result["intervals"].get(name)
+        extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g})" if interval else ""
+        print(f"  {name} = {value:.4g}{extra}")
+
+
 def cmd_diagnose(args: argparse.Namespace) -> int:
+    if is_imu_folder(args.dataset):
+        return _diagnose_recordings(args)
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
                                    cache_dir=args.cache)
     if result is None:
         return code
     g = result["gain"]
-    cause = f" cause: {result['cause']}" if result["cause"] else ""
-    print(f"verdict: {result['verdict']}{cause}")
-    print(f"  {result['reason']}")
-    for name, value in result["parameters"].items():
-        interval = result["intervals"].get(name)
-        extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g})" if interval else ""
-        print(f"  {name} = {value:.4g}{extra}")
+    _print_verdict(result)
     print(f"gain on held-out runs: error {g['baseline_error']:.2f} -> {g['extended_error']:.2f}"
           f" (trial noise {g['noise_error']:.2f}; {g['relative_reduction']:.0%} of the "
           f"discrepancy removed, {g['extended_cause'] or 'no cause'})")
@@ -317,6 +328,30 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print(f"resumed: {result['simulations']['reused']} simulations reused from "
               f"{result['simulations']['cache']}")
     print(f"report: {args.out}/report.md ({result['wall_time_s']} s)")
+    return 0
+
+
+def _diagnose_recordings(args: argparse.Namespace) -> int:
+    """diagnose on real recordings (IMU runs with wheel speeds: reports.real_data)."""
+    if args.model is None:
+        print(f"skidsteer: {args.dataset} holds real recordings: name the robot they are of "
+              f"with --model (one of {', '.join(robot_names())}, a folder or an MJCF file)",
+              file=sys.stderr)
+        return 2
+    try:
+        result = diagnose_recordings(args.dataset, args.out, model=args.model,
+                                     progress=not args.no_progress, timestep=args.timestep)
+    except (DataError, ValueError, FileNotFoundError) as err:
+        print(f"skidsteer: {err}", file=sys.stderr)
+        return 2
+    if args.json:
+        _print_json(result)
+        return 0
+    _print_verdict(result, f"  floor: {result['floor_note']}")
+    print(f"{len(result['runs'])} segments of {len({r['run'] for r in result['runs']})} runs; "
+          f"report: {args.out}/report.md ({result['wall_time_s']} s)")
+    for s in result["skipped"]:
+        print(f"  skipped {s.get('file')}: {s.get('reason')}")
     return 0
 
 
@@ -445,7 +480,9 @@ def build_parser() -> argparse.ArgumentParser:
             ("diagnose", cmd_diagnose, "name the cause of a dataset's discrepancies, fit it, "
                                        "measure the gain")):
         p = sub.add_parser(name, help=text)
-        p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})")
+        p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})" + (
+            "; or real recordings (diagnose): a folder of imu_NN.csv with pro_NN.csv, a ROS "
+            "bag or an MCAP file, with --model" if name == "diagnose" else ""))
         p.add_argument("--out", default=f"{name}-out", help="output directory")
         _add_model(p, default=None)
         if name == "diagnose":

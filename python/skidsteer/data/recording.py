@@ -105,13 +105,19 @@ def _number(value, place: str, text: bool = False) -> float:
     return x
 
 
-def _read_csv(path: Path):
+def read_utf8(path: Path) -> str:
+    """A text file's contents (UTF-8, a BOM dropped); DataError naming the file and
+    what is wrong with it."""
     try:
-        text = path.read_bytes().decode("utf-8-sig")
+        return path.read_bytes().decode("utf-8-sig")
     except OSError as e:
         raise DataError(f"{path}: cannot read ({e.strerror or e})") from None
     except UnicodeDecodeError as e:
         raise DataError(f"{path}: not UTF-8 text (byte {e.start})") from None
+
+
+def _read_csv(path: Path):
+    text = read_utf8(path)
     if not text.strip():
         raise DataError(f"{path}: empty file")
     reader = csv.reader(io.StringIO(text, newline=""))

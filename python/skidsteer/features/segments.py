@@ -1,0 +1,105 @@
+"""Steady segments of a recorded run and their yaw-rate features (issue 20).
+
+A real run is not one constant command: the operator turns in place, drives
+straight, arcs and stops.  ``segments`` cuts a run wherever the kind of its wheel
+command changes or the robot reverses its turn or its travel; every span of at
+least MIN_SEGMENT_S is scored like a trial.  ``yaw_features``
+gives each segment's yaw rate as the gyro measures it (after the robot has
+settled into the command) and as the wheel geometry predicts it, and their
+ratio, the effective-track factor chi: 1 for wheels that do not slip, about
+1 + (a/c)^2 for a skid-steer robot with isotropic Coulomb friction turning in
+place (a: half wheelbase, c: half track).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+MIN_SEGMENT_S = 3.0  # shorter spans are transitions, not trials
+SETTLE_S = 1.0  # the first second of a segment is the robot taking up the command
+# Kinds, from v = (left + right)/2 and d = (right - left)/2 (m/s): stopped below
+# STOP_MPS in both; turning in place while |v| < IN_PLACE_RATIO |d| (the turning
+# centre within a fifth of the half track of the robot's centre); straight while
+# |d| < STRAIGHT_RATIO |v| (turning radius above 20 half tracks); an arc otherwise.
+STOP_MPS = 0.02
+IN_PLACE_RATIO = 0.2
+STRAIGHT_RATIO = 0.05
+KINDS = ("stop", "turn_in_place", "straight", "arc")
+
+
+@dataclasses.dataclass(frozen=True)
+class Segment:
+    """A span [start_s, end_s] of a run (the IMU file's clock) whose wheel command is
+    of one kind; left_mps, right_mps: the command's means over the span."""
+
+    run: str  # the IMU file name
+    start_s: float
+    end_s: float
+    kind: str
+    left_mps: float
+    right_mps: float
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+def kind_of(left_mps: float, right_mps: float) -> str:
+    v, d = (left_mps + right_mps) / 2, (right_mps - left_mps) / 2
+    if max(abs(v), abs(d)) < STOP_MPS:
+        return "stop"
+    if abs(v) < IN_PLACE_RATIO * abs(d):
+        return "turn_in_place"
+    if abs(d) < STRAIGHT_RATIO * abs(v):
+        return "straight"
+    return "arc"
+
+
+def segments(wheel_time_s, left_mps, right_mps, t_start: float, t_end: float,
+             run: str = "", min_duration_s: float = MIN_SEGMENT_S) -> list[Segment]:
+    """The spans of a record in which every wheel-speed sample (held until the next) is
+    of one kind (and one direction of turn and of travel), lasting at least
+    min_duration_s within [t_start, t_end] (the IMU record), in time order.  The
+    command may vary inside a span (an operator's joystick): a segment's left_mps,
+    right_mps are its means, and yaw_features compares the yaw rates sample by
+    sample."""
+    w_t = np.asarray(wheel_time_s, float)
+    left, right = np.asarray(left_mps, float), np.asarray(right_mps, float)
+    kinds = [kind_of(a, b) for a, b in zip(left, right)]
+    # a segment also ends where the robot reverses its turn or its travel
+    labels = [(k, np.sign(b - a) if k in ("turn_in_place", "arc") else 0,
+               np.sign(a + b) if k in ("straight", "arc") else 0)
+              for k, a, b in zip(kinds, left, right)]
+    out, i, n = [], 0, len(kinds)
+    while i < n:
+        j = i + 1
+        while j < n and labels[j] == labels[i]:
+            j += 1
+        start = max(float(w_t[i]), t_start)
+        end = min(float(w_t[j]) if j < n else t_end, t_end)
+        if end - start >= min_duration_s:
+            out.append(Segment(run, start, end, kinds[i], float(np.mean(left[i:j])),
+                               float(np.mean(right[i:j]))))
+        i = j
+    return out
+
+
+def yaw_features(segment: Segment, time_s, gyro_z, left_mps, right_mps,
+                 track_m: float) -> dict:
+    """The segment's yaw rates (deg/s), means from SETTLE_S after its start to its end:
+    measured (gyro_z, rad/s, at time_s), predicted by the wheels ((right - left) /
+    track, the wheel speeds at the same samples), and chi = predicted / measured
+    (None when the robot hardly turns: |measured| below 0.2 deg/s or 2 % of
+    |predicted|)."""
+    time_s = np.asarray(time_s, float)
+    window = (time_s >= segment.start_s + SETTLE_S) & (time_s <= segment.end_s)
+    if not window.any():
+        return {"yaw_rate_deg_s": None, "yaw_rate_predicted_deg_s": None, "chi": None}
+    measured = float(np.rad2deg(np.mean(np.asarray(gyro_z)[window])))
+    difference = np.asarray(right_mps)[window] - np.asarray(left_mps)[window]
+    predicted = float(np.rad2deg(np.mean(difference) / track_m))
+    turning = abs(measured) >= 0.2 and abs(measured) >= 0.02 * abs(predicted)
+    return {"yaw_rate_deg_s": measured, "yaw_rate_predicted_deg_s": predicted,
+            "chi": predicted / measured if turning and abs(predicted) > 0 else None}
