@@ -4,14 +4,15 @@ recordings of a Husky A200 (issue 20), one table.
 Usage:  python scripts/borealtc_report.py [--data ../shared/data/borealtc]
         [--out /tmp/borealtc-diagnoses] [--markdown docs/real-data/borealtc.md]
 Each terrain is `skidsteer diagnose DATA/TERRAIN --model husky_a200 --out OUT/TERRAIN`
-(its diagnosis.json and report.md stay under --out).  ~2-6 min per terrain on 2 cores.
+(its diagnosis.json and report.md stay under --out; --reuse takes them from there
+instead of diagnosing again).  ~2-6 min per terrain on 2 cores.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
-import time
 from pathlib import Path
 
 from skidsteer.reports.real_data import diagnose_recordings
@@ -44,14 +45,29 @@ segments and judged on the odd-numbered ones (held out).
 TAIL = """
 What the table says, and what it does not:
 
-- The base model, with the URDF's centre of mass 8.5 cm right of the centre
-  line, turns about 1.6 times slower than the robot on its rigid floors (chi
-  ~2.2 against ~1.4).  A skid-steer robot turning in place drags its wheels
-  sideways against lateral friction in proportion to each wheel's load; with
-  65 % of the weight on one side the loaded side resists as if the robot were
-  wider.  The cause `com_lateral_offset` (skidsteer.diagnosis.motion), found in
-  these data and tested on hidden-effect data (tests/test_real_data.py), is
-  fitted where the floor is rigid.
+- On the rigid floors the base model turns 1.5-1.65 times slower for its wheel
+  speeds than the robot does (chi 2.1-2.35 against 1.35-1.45), in place and in
+  arcs, far outside the segments' scatter.  With the floors' friction stated
+  before the comparison (the thesis's sets), the target "chi turning in place
+  on flooring within 10 %" is missed by ~58 %.
+- Turning in place: a skid-steer robot turning in place drags its wheels
+  sideways against lateral friction in proportion to each wheel's load; the
+  URDF puts the centre of mass 8.5 cm right of the centre line (65 % of the
+  weight on one side), and the loaded side resists as if the robot were wider.
+  The motion cause `com_lateral_offset` (skidsteer.diagnosis.motion), found in
+  these data and tested on hidden-effect data (tests/test_real_data.py), is the
+  most likely cause on flooring: fitted on half the runs it brings the held-out
+  runs' chi in place to within ~7 % of the measured (a diagnosis, fitted: it
+  counts as such), but not within the segments' tight scatter, and it leaves
+  the arcs untouched.  With the centre of mass simply centred (not fitted), the
+  model turns in place at chi 1.33 (constant 15.6 deg/s swivel), 2 % from the
+  measured 1.35.
+- Arcs: no candidate closes them (the model's 2.2-2.35 against 1.42-1.45).  In
+  an arc the wheels roll, and the thesis's law gives a rolling wheel lateral
+  friction in proportion to its lateral slip over its rolling speed and
+  lambda_max (eq. 4.12b); even lambda_max at its prior's top leaves chi at 1.85.
+  What the law lacks here is the suspect: the verdict is "unexplained", with the
+  most likely cause and what it leaves.
 - Sandy loam and snow are not rigid floors: the robot sinks, bulldozes and
   gets stuck (in 10 of the 27 snow runs the robot hardly turns while its
   wheels do); chi there is a property of the ground that no rigid-floor cause
@@ -60,11 +76,11 @@ What the table says, and what it does not:
 - The wheel speeds in these files behave like the commanded set points (steps
   of 1/127 m/s, held unchanged for seconds, unchanged while the robot is
   stuck), so chi here is the commanded over the measured yaw rate; the replay
-  uses them as the servos' targets, as the issue asks.
+  uses them as the servos' targets.
 - Not used yet: the vibration the IMU records.  On the hard floors a line at
   18 times the wheel's rotation frequency (and 36x on a_z), 17.35 Hz per m/s of
-  wheel speed, dominates: the lugs of the tread (a candidate cause no model
-  here has; the round, smooth wheels of the model have no such line).
+  wheel speed, dominates: the lugs of the tread, a candidate cause no model
+  here has (the model's round, smooth wheels have no such line).
 """
 
 
@@ -74,6 +90,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("/tmp/borealtc-diagnoses"))
     ap.add_argument("--markdown", type=Path, default=None)
     ap.add_argument("--model", default="husky_a200")
+    ap.add_argument("--reuse", action="store_true",
+                    help="take a terrain's diagnosis.json from --out when it is there")
     args = ap.parse_args(argv)
     terrains = sorted(p for p in args.data.iterdir() if p.is_dir())
     if not terrains:
@@ -83,8 +101,11 @@ def main(argv=None) -> int:
         argv if argv is not None else sys.argv[1:])
     lines, reasons = [HEAD.format(command=command)], ["\nThe verdicts' reasons:\n\n"]
     for folder in terrains:
-        t0 = time.time()
-        r = diagnose_recordings(folder, args.out / folder.name, model=args.model)
+        saved = args.out / folder.name / "diagnosis.json"
+        if args.reuse and saved.is_file():
+            r = json.loads(saved.read_text())
+        else:
+            r = diagnose_recordings(folder, args.out / folder.name, model=args.model)
         runs = len({row["run"] for row in r["runs"]})
         chi = {kind: f"{f['measured']['median']:.2f} +- {f['measured']['stderr']:.2f} "
                      f"({f['measured']['n']})" for kind, f in r["features"].items()}
@@ -104,7 +125,7 @@ def main(argv=None) -> int:
         lines.append(f"| {folder.name} | {runs} ({len(r['skipped'])}) | "
                      f"{cell(chi, 'turn_in_place')} | {cell(base, 'turn_in_place')} | "
                      f"{cell(chi, 'arc')} | {cell(base, 'arc')} | **{r['verdict']}** | "
-                     f"{cause} | {held} | {r['floor_note']} | {time.time() - t0:.0f} |\n")
+                     f"{cause} | {held} | {r['floor_note']} | {r['wall_time_s']:.0f} |\n")
         reasons.append(f"- **{folder.name}**: {r['reason']}\n")
         print(lines[-1], end="", flush=True)
     text = "".join(lines) + "".join(reasons) + TAIL

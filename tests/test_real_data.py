@@ -22,6 +22,7 @@ from skidsteer.data.imu import (ImuRun, WheelSpeeds, read_bag, read_borealtc_run
 from skidsteer.diagnosis.motion import COM_LATERAL_OFFSET
 from skidsteer.experiments.replay import replay
 from skidsteer.features.segments import kind_of
+from skidsteer.reports import real_data
 from skidsteer.reports.real_data import diagnose_recordings, run_segments, run_yaw_features
 from skidsteer.robot import Setup, load_model
 
@@ -272,3 +273,14 @@ def test_diagnose_runs_on_the_real_excerpt_from_the_command_line(tmp_path, capsy
         result["floor_note"]
     assert result["verdict"] == "unexplained"
     assert "verdict: unexplained" in capsys.readouterr().out
+
+
+def test_segments_that_scatter_like_a_stuck_robot_decide_nothing():
+    # SNOW in BorealTC: in some segments the robot turns, in others it is stuck (chi 2
+    # to 30); the tolerance that scatter gives would call anything "no discrepancy"
+    chis = [2.0, 2.2, 9.0, 30.0, 2.1, 15.0, 40.0, 3.0]
+    rows = [{"kind": "turn_in_place", "yaw_rate_predicted_deg_s": 20.0, "chi_measured": c,
+             "chi_simulated": 2.1, "half": "fit" if i % 2 else "held_out"}
+            for i, c in enumerate(chis)]
+    result = real_data._verdict(rows, True, "", None, None, None)
+    assert result["verdict"] == "unexplained" and "scatters too much" in result["reason"]

@@ -44,6 +44,10 @@ from skidsteer.simulation.run import run_batch
 MIN_TURN_DEG_S = 3.0  # a segment turning slower says little about chi (gyro bias ~0.01 deg/s)
 NOISE_Z = 3.0  # discrepancy within 3 robust standard errors of the measured median: none
 MIN_RELATIVE = 0.05  # and never finer than 5 % of chi (the model's own step/settling spread)
+# segments whose chi scatters by more than this (robust standard error of the median
+# over the median) do not behave like repeated trials of one thing (a robot that
+# sometimes turns and sometimes is stuck): such a feature decides nothing
+MAX_RELATIVE_SCATTER = 0.1
 EXPLAINED_SHARE = 0.5  # a cause must remove at least half of the held-out discrepancy
 FIT_GRID = 11  # points of the cause's prior the surrogate is simulated at (linear between)
 SURROGATE_COMMANDS = 3  # representative commands of the surrogate (terciles of |yaw rate|)
@@ -180,6 +184,15 @@ def _verdict(rows, rigid_floor: bool, floor_note: str, m, setup, timestep) -> di
     described = "; ".join(f"{k}: model {f['simulated']['median']:.2f}, measured "
                           f"{f['measured']['median']:.2f} (tolerance {f['tolerance']:.2f})"
                           for k, f in features.items())
+    scattered = [k for k, f in features.items()
+                 if f["measured"]["stderr"] > MAX_RELATIVE_SCATTER * abs(f["measured"]["median"])]
+    if scattered:
+        out.update(verdict="unexplained", reason=(
+            f"the segments' chi scatters too much to be one behaviour ({', '.join(scattered)}: "
+            "robust standard error above "
+            f"{MAX_RELATIVE_SCATTER:.0%} of the median: a robot that turns in some segments and "
+            f"is stuck in others); {described}" + (f"; {floor_note}" if not rigid_floor else "")))
+        return out
     discrepant = [k for k, f in features.items() if abs(f["discrepancy"]) > f["tolerance"]]
     if not discrepant:
         out.update(verdict="no-discrepancy", reason=f"chi within the segments' scatter: "
