@@ -48,6 +48,7 @@ MIN_RELATIVE = 0.05  # and never finer than 5 % of chi (the model's own step/set
 # over the median) do not behave like repeated trials of one thing (a robot that
 # sometimes turns and sometimes is stuck): such a feature decides nothing
 MAX_RELATIVE_SCATTER = 0.1
+MIN_SCATTER_SEGMENTS = 5  # fewer segments give no robust spread to judge (the MAD of 2)
 EXPLAINED_SHARE = 0.5  # a cause must remove at least half of the held-out discrepancy
 FIT_GRID = 11  # points of the cause's prior the surrogate is simulated at (linear between)
 SURROGATE_COMMANDS = 3  # representative commands of the surrogate (terciles of |yaw rate|)
@@ -184,8 +185,8 @@ def _verdict(rows, rigid_floor: bool, floor_note: str, m, setup, timestep) -> di
     described = "; ".join(f"{k}: model {f['simulated']['median']:.2f}, measured "
                           f"{f['measured']['median']:.2f} (tolerance {f['tolerance']:.2f})"
                           for k, f in features.items())
-    scattered = [k for k, f in features.items()
-                 if f["measured"]["stderr"] > MAX_RELATIVE_SCATTER * abs(f["measured"]["median"])]
+    scattered = [k for k, f in features.items() if f["measured"]["n"] >= MIN_SCATTER_SEGMENTS
+                 and f["measured"]["stderr"] > MAX_RELATIVE_SCATTER * abs(f["measured"]["median"])]
     if scattered:
         out.update(verdict="unexplained", reason=(
             f"the segments' chi scatters too much to be one behaviour ({', '.join(scattered)}: "
