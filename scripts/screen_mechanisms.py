@@ -216,18 +216,21 @@ SLIDING_VELOCITY = causes.Parameter(
 FALLING = "falling_friction"
 
 
+PRIOR_POINTS = (("low", 0.0), ("mid", 0.5), ("high", 1.0))
+
+
+def prior_points(parameter, points=PRIOR_POINTS) -> list[tuple[str, float]]:
+    """(where, value) of a prior at its low end, middle and high end (or `points`)."""
+    return [(where, float(parameter.from_unit(u))) for where, u in points]
+
+
 def falling_friction_list() -> list[tuple[str, dict]]:
     """(label, tire attributes): alpha_s at the low end (the strongest fall) and the
     middle of its prior, each with v_S at the low end, middle and high end of its."""
-    out = []
-    for a_where, a_u in (("low", 0.0), ("mid", 0.5)):
-        alpha = float(SLIDING_FRICTION_RATIO.from_unit(a_u))
-        for v_where, v_u in (("low", 0.0), ("mid", 0.5), ("high", 1.0)):
-            v_s = float(SLIDING_VELOCITY.from_unit(v_u))
-            out.append((f"{FALLING} alpha_s {a_where}/v_S {v_where} "
-                        f"({alpha:.2g}, {v_s:.2g} m/s)",
-                        {"sliding_friction_ratio": alpha, "sliding_velocity": v_s}))
-    return out
+    return [(f"{FALLING} alpha_s {a_where}/v_S {v_where} ({alpha:.2g}, {v_s:.2g} m/s)",
+             {"sliding_friction_ratio": alpha, "sliding_velocity": v_s})
+            for a_where, alpha in prior_points(SLIDING_FRICTION_RATIO, PRIOR_POINTS[:2])
+            for v_where, v_s in prior_points(SLIDING_VELOCITY)]
 
 
 # The lateral force coupled to the normal load: the plugin's stiffness_y_load_exponent
@@ -244,12 +247,8 @@ LOAD_COUPLING = "load_coupling"
 
 def load_coupling_list() -> list[tuple[str, dict]]:
     """(label, tire attributes): n at the low end, middle and high end of its prior."""
-    out = []
-    for where, u in (("low", 0.0), ("mid", 0.5), ("high", 1.0)):
-        n = float(LOAD_EXPONENT.from_unit(u))
-        out.append((f"{LOAD_COUPLING} n {where} ({n:.2g})",
-                    {"stiffness_y_load_exponent": n}))
-    return out
+    return [(f"{LOAD_COUPLING} n {where} ({n:.2g})", {"stiffness_y_load_exponent": n})
+            for where, n in prior_points(LOAD_EXPONENT)]
 
 
 # The drivetrain: the P3-AT's per-side velocity loop with an integral term and a

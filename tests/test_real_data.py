@@ -282,5 +282,5 @@ def test_segments_that_scatter_like_a_stuck_robot_decide_nothing():
     rows = [{"kind": "turn_in_place", "yaw_rate_predicted_deg_s": 20.0, "chi_measured": c,
              "chi_simulated": 2.1, "half": "fit" if i % 2 else "held_out"}
             for i, c in enumerate(chis)]
-    result = real_data._verdict(rows, True, "", None, None, None)
+    result = real_data._verdict(rows, True, "", None, None)
     assert result["verdict"] == "unexplained" and "scatters too much" in result["reason"]

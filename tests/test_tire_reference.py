@@ -172,13 +172,8 @@ def test_plugin_equals_reference_on_a_heightfield(seed):
 @pytest.mark.parametrize("coupling", ["implicit", "explicit"])
 @pytest.mark.parametrize("seed", range(3))
 def test_plugin_equals_reference_with_friction_falling_with_sliding_speed(seed, coupling):
-    rng = np.random.default_rng(300 + seed)
-    config = random_config(rng, coupling=coupling, falling=True)
-    m = load_spec("extended", tire=config).compile()
-    ref = TireReference(m, TireParams.from_config(config))
+    ref, branches = _compare_optional_law(300 + seed, coupling, falling=True)
     assert ref.params.sliding_friction_ratio < 1
-    branches = compare(m, ref, rng, trials=60)
-    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
     # the falling branch itself was exercised: loaded wheels whose kinetic limit was
     # reduced by more than 1 % and yet not down to alpha_s (its flat end)
     assert branches["falling"] >= 5, branches
@@ -187,13 +182,20 @@ def test_plugin_equals_reference_with_friction_falling_with_sliding_speed(seed, 
 @pytest.mark.parametrize("coupling", ["implicit", "explicit"])
 @pytest.mark.parametrize("seed", range(3))
 def test_plugin_equals_reference_with_load_coupled_lateral_stiffness(seed, coupling):
-    rng = np.random.default_rng(400 + seed)
-    config = random_config(rng, coupling=coupling, load_coupled=True)
+    ref, _ = _compare_optional_law(400 + seed, coupling, load_coupled=True)
+    assert ref.params.stiffness_y_load_exponent > 0
+
+
+def _compare_optional_law(seed: int, coupling: str, **law):
+    """(reference, branches) of compare() on random attributes with an optional law on
+    (random_config's falling= or load_coupled=); both friction branches exercised."""
+    rng = np.random.default_rng(seed)
+    config = random_config(rng, coupling=coupling, **law)
     m = load_spec("extended", tire=config).compile()
     ref = TireReference(m, TireParams.from_config(config))
-    assert ref.params.stiffness_y_load_exponent > 0
     branches = compare(m, ref, rng, trials=60)
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+    return ref, branches
 
 
 def test_reference_law_agrees_with_plugin_on_defaults():

@@ -124,7 +124,7 @@ def diagnose_recordings(dataset, out, model: str = "husky_a200", progress: bool 
                          "yaw_rate_simulated_deg_s": model_side["yaw_rate_deg_s"],
                          "chi_measured": measured["chi"], "chi_simulated": model_side["chi"],
                          "half": "fit" if index % 2 == 0 else "held_out"})
-    result = _verdict(rows, floor is not None, floor_note, m, setup, timestep)
+    result = _verdict(rows, floor is not None, floor_note, setup, timestep)
     result.update({"model": model, "terrain": terrain, "floor": setup.floor,
                    "floor_note": floor_note, "dataset": str(dataset),
                    "runs": rows, "skipped": skipped,
@@ -159,7 +159,7 @@ def _tolerance(measured: dict) -> float:
     return max(NOISE_Z * (measured["stderr"] or 0.0), MIN_RELATIVE * measured["median"])
 
 
-def _verdict(rows, rigid_floor: bool, floor_note: str, m, setup, timestep) -> dict:
+def _verdict(rows, rigid_floor: bool, floor_note: str, setup, timestep) -> dict:
     """The verdict on chi, one feature per kind of turning segment (TURN_KINDS) with at
     least two segments; see the module's docstring."""
     features = {}

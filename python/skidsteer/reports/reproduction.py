@@ -420,8 +420,8 @@ def mechanism_features(out: Path, edits: dict, tire: dict | None = None,
     of the extended build on concrete and carpet; grid: omegas and wheel_omegas, deg/s,
     default MECHANISM_GRID) go to out/data, their analyses to out/analysis.  Returns
     {"features": rows as sec_3_2_features's, each with its "set" (fitted/predicted),
-    "lift": wheel_lift's rows, "summary": per build and floor the steady a_y amplitude
-    per omega}.
+    "lift": wheel_lift's rows, "amplitude_m_s2": per build and floor the steady a_y
+    amplitude per omega, "skipped": runs the analysis could not read}.
     """
     out = Path(out)
     grid = grid or MECHANISM_GRID
