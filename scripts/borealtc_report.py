@@ -84,6 +84,37 @@ What the table says, and what it does not:
 """
 
 
+VIBRATION_HEAD = """
+## Vibration
+
+Per kind of segment (at least 5): the lines at fixed multiples of the wheels'
+rotation rate (wheel orders, local maxima of the segments' median prominence of
+at least 6 dB over the PSD beside them; orders whose frequency the 100 Hz record
+cannot hold, above 45 Hz, are not judged) and the RMS per axis from 1 to 45 Hz,
+recording against the base model replaying the same runs.
+
+| terrain | kind (segments) | lines in the recordings: order, axis (dB) | the model at those orders (dB) | RMS recorded a_x, a_y, a_z (m/s^2) | base model | vibration verdict |
+|---|---|---|---|---|---|---|
+"""
+
+
+def _vibration_rows(terrain: str, vib: dict) -> list[str]:
+    rows = []
+    for kind, v in vib["kinds"].items():
+        recorded = [f for f in v["lines"] if f["in"] == "recording"]
+        lines = ", ".join(f"{f['order']} a_{f['axis']} ({f['measured_db']:.0f})"
+                          for f in recorded) or "none"
+        model = ", ".join("-" if f["simulated_db"] is None else f"{f['simulated_db']:.0f}"
+                          for f in recorded) or "-"
+        rms = ", ".join(f"{e['measured_m_s2']:.3f}" for e in v["rms"].values())
+        base = ", ".join(f"{e['simulated_m_s2']:.3f}" for e in v["rms"].values())
+        rows.append(f"| {terrain} | {kind} ({v['segments']}) | {lines} | {model} | {rms} | "
+                    f"{base} | {vib['verdict']} |\n")
+    if not rows:
+        rows.append(f"| {terrain} | - | - | - | - | - | {vib['verdict']} |\n")
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data/borealtc"))
@@ -100,6 +131,8 @@ def main(argv=None) -> int:
     command = "python scripts/borealtc_report.py " + " ".join(
         argv if argv is not None else sys.argv[1:])
     lines, reasons = [HEAD.format(command=command)], ["\nThe verdicts' reasons:\n\n"]
+    vibration = [VIBRATION_HEAD]
+    vibration_reasons = ["\nThe vibration verdicts' reasons:\n\n"]
     for folder in terrains:
         saved = args.out / folder.name / "diagnosis.json"
         if args.reuse and saved.is_file():
@@ -127,8 +160,10 @@ def main(argv=None) -> int:
                      f"{cell(chi, 'arc')} | {cell(base, 'arc')} | **{r['verdict']}** | "
                      f"{cause} | {held} | {r['floor_note']} | {r['wall_time_s']:.0f} |\n")
         reasons.append(f"- **{folder.name}**: {r['reason']}\n")
+        vibration += _vibration_rows(folder.name, r["vibration"])
+        vibration_reasons.append(f"- **{folder.name}**: {r['vibration']['reason']}\n")
         print(lines[-1], end="", flush=True)
-    text = "".join(lines) + "".join(reasons) + TAIL
+    text = "".join(lines) + "".join(reasons) + "".join(vibration) + "".join(vibration_reasons) + TAIL
     if args.markdown:
         args.markdown.parent.mkdir(parents=True, exist_ok=True)
         args.markdown.write_text(text)

@@ -22,7 +22,16 @@ if [[ "${CI:-}" == "true" || "${SKIDSTEER_SANITIZE_TESTS:-}" == "1" ]]; then
   sanitize_pid=$!
 fi
 status=0
-"${SKIDSTEER_VENV:-.venv}/bin/python" -m pytest "$@" || status=$?
+# Two pytest workers, one test module per worker (--dist loadscope: a module's shared
+# fixtures, e.g. test_diagnose.py's hidden-effect diagnoses, are computed once), so
+# the single-threaded tests of the other modules run beside the diagnoses (CI's
+# 30-min budget).  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
+workers=${SKIDSTEER_TEST_WORKERS:-2}
+parallel=()
+if [[ "$workers" -gt 0 ]]; then
+  parallel=(-n "$workers" --dist loadscope)
+fi
+"${SKIDSTEER_VENV:-.venv}/bin/python" -m pytest "${parallel[@]}" "$@" || status=$?
 if [[ $sanitize -eq 1 ]]; then
   sanitize_status=0
   wait "$sanitize_pid" || sanitize_status=$?

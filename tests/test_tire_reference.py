@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from skidsteer.robot import load_spec
+from skidsteer.robot.tire import find_wheels
 from skidsteer.simulation.run import run_commanded
 from tire_reference import (
     FLOOR_FRICTION, NSTATE_WHEEL, TireParams, TireReference, friction_factors, sliding_factor,
@@ -23,7 +24,7 @@ RTOL = 1e-9
 
 def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
                   coupling: str = "implicit", falling: bool = False,
-                  load_coupled: bool = False) -> dict[str, str]:
+                  load_coupled: bool = False, lugged: bool = False) -> dict[str, str]:
     floor = str(rng.choice(list(FLOOR_FRICTION)))
     mu_s = rng.uniform(0.3, 1.2)
     config = {
@@ -53,6 +54,11 @@ def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
         # attribute's range of exponents and loads around the wheels' static ones
         config["stiffness_y_load_exponent"] = rng.uniform(0.2, 2.0)
         config["reference_load"] = rng.uniform(30.0, 120.0)
+    if lugged:
+        # a lugged tread: 6-40 lugs, drops from a fraction of a mm to the 5 mm a
+        # 0.11 m wheel of 6 lugs would have as a rigid polygon
+        config["lug_count"] = int(rng.integers(6, 41))
+        config["lug_depth"] = rng.uniform(2e-4, 5e-3)
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
 
@@ -184,6 +190,37 @@ def test_plugin_equals_reference_with_friction_falling_with_sliding_speed(seed, 
 def test_plugin_equals_reference_with_load_coupled_lateral_stiffness(seed, coupling):
     ref, _ = _compare_optional_law(400 + seed, coupling, load_coupled=True)
     assert ref.params.stiffness_y_load_exponent > 0
+
+
+@pytest.mark.parametrize("coupling", ["implicit", "explicit"])
+def test_plugin_equals_reference_with_a_lugged_tread(coupling):
+    # compare() draws the wheels' joint angles at random: every phase of a lug
+    ref, _ = _compare_optional_law(500, coupling, lugged=True)
+    assert ref.params.lug_count >= 6 and ref.params.lug_depth > 0
+
+
+def test_a_lug_drops_the_wheel_by_lug_depth_midway_between_two():
+    # at rest, on a lug (joint angle 0) and midway to the next (pi / lug_count): an
+    # upright wheel's compression falls by exactly lug_depth, so N = K_z delta by K_z
+    # lug_depth; at a quarter of the way, by the polygon's (1 - cos) profile
+    depth, count, k_z = 0.002, 10, 2e4
+    m = load_spec("extended", tire={"lug_count": str(count), "lug_depth": str(depth),
+                                    "stiffness_z": str(k_z)}).compile()
+    d = mujoco.MjData(m)
+    wheel = find_wheels(m, 0, 0.0)[0]
+    sensor = m.sensor("tire_forces")
+    normal = {}
+    for fraction in (0.0, 0.5, 0.25):
+        mujoco.mj_resetData(m, d)
+        d.qpos[2] -= 0.01  # every wheel pressed into the floor
+        d.qpos[m.jnt_qposadr[wheel.joint]] = fraction * 2 * np.pi / count
+        mujoco.mj_forward(m, d)
+        normal[fraction] = d.sensordata[sensor.adr[0]]
+    assert normal[0.0] > k_z * depth
+    assert normal[0.0] - normal[0.5] == pytest.approx(k_z * depth, rel=1e-9)
+    half = np.pi / count
+    profile = (1 - np.cos(half / 2)) / (1 - np.cos(half))
+    assert normal[0.0] - normal[0.25] == pytest.approx(k_z * depth * profile, rel=1e-9)
 
 
 def _compare_optional_law(seed: int, coupling: str, **law):

@@ -26,6 +26,9 @@ BAD_ATTRIBUTES = [
     ("stiffness_y_load_exponent", "-0.5", "must lie in [0, 2]"),
     ("stiffness_y_load_exponent", "3", "must lie in [0, 2]"),
     ("reference_load", "0", "must be a finite number > 0"),
+    ("lug_count", "2.5", "must be a whole number in [0, 1000]"),
+    ("lug_count", "-1", "must be a whole number in [0, 1000]"),
+    ("lug_depth", "0.1", "must lie in [0, 0.05] m"),
     ("radius", "-0.1", "must be > 0"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler

@@ -69,6 +69,10 @@ class TireParams:
     # n and N_0, N: the lateral stiffness is K_y (N / N_0)^n; n = 0 is off
     stiffness_y_load_exponent: float = _DEFAULTS["stiffness_y_load_exponent"]
     reference_load: float = _DEFAULTS["reference_load"]
+    # tread lugs per revolution (0: round) and the centre's drop between two lugs, m:
+    # geometry of the contact, read by wheel_contact
+    lug_count: float = _DEFAULTS["lug_count"]
+    lug_depth: float = _DEFAULTS["lug_depth"]
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -265,10 +269,31 @@ def _point_velocity(m, d, body, point):
     return np.cross(cvel[:3], offset) + cvel[3:]
 
 
-def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: list[int]):
+def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: list[int],
+                  p: TireParams = TireParams()):
     """(Kinematics, frame rows [n, t_x, t_y], contact point) or None off the floor."""
     center = d.geom_xpos[wheel.geom] if wheel.geom >= 0 else d.xpos[wheel.body]
     axle = d.xaxis[wheel.joint]
+    radius, drop_rate = wheel.radius, 0.0
+    if p.lug_count > 0 and p.lug_depth > 0:
+        # a polygon of lug_count sides, its drop between lugs scaled to lug_depth, at
+        # the wheel's angle about its axle from the bodies' poses (as the plugin: they
+        # are the step's start also where qpos has moved on)
+        parent = m.body_parentid[wheel.body]
+        inv_parent, inv_body = np.zeros(4), np.zeros(4)
+        relative, q_joint, rotation = np.zeros(4), np.zeros(4), np.zeros(3)
+        mujoco.mju_negQuat(inv_parent, d.xquat[parent])
+        mujoco.mju_negQuat(inv_body, m.body_quat[wheel.body])
+        mujoco.mju_mulQuat(relative, inv_parent, d.xquat[wheel.body])
+        mujoco.mju_mulQuat(q_joint, inv_body, relative)
+        mujoco.mju_quat2Vel(rotation, q_joint, 1.0)
+        angle = float(rotation @ m.jnt_axis[wheel.joint])
+        rate = float((d.cvel[wheel.body, :3] - d.cvel[parent, :3]) @ d.xaxis[wheel.joint])
+        pitch = 2 * math.pi / p.lug_count
+        alpha = angle - pitch * math.floor(angle / pitch + 0.5)
+        scale = p.lug_depth / (1 - math.cos(pitch / 2))
+        radius -= scale * (1 - math.cos(alpha))
+        drop_rate = scale * math.sin(alpha) * rate
     best, normal, spread = -np.inf, None, 1.0
     for f in floors:
         up = d.geom_xmat[f].reshape(3, 3)[:, 2]
@@ -276,7 +301,7 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
         sin_tilt = math.sqrt(max(0.0, 1 - cos_tilt * cos_tilt))
         if sin_tilt < 1e-9:
             continue
-        rim = wheel.radius * sin_tilt
+        rim = radius * sin_tilt
         if int(m.geom_type[f]) == _PLANE:
             height = float((center - d.geom_xpos[f]) @ up)
         else:
@@ -289,14 +314,15 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
     if normal is None:
         return None
     cos_tilt = float(normal @ axle)
-    point = center + (axle * cos_tilt - normal) * (wheel.radius / spread)
+    point = center + (axle * cos_tilt - normal) * (radius / spread)
     tx = np.cross(axle, normal)
     tx /= np.linalg.norm(tx)
     ty = np.cross(normal, tx)
     v_rim = _point_velocity(m, d, wheel.body, point)
     v_center = _point_velocity(m, d, wheel.body, center)
     slip_x = float(v_rim @ tx)
-    k = Kinematics(compression=best, compression_rate=-float(v_rim @ normal), slip_x=slip_x,
+    k = Kinematics(compression=best, compression_rate=-float(v_rim @ normal) - drop_rate * spread,
+                   slip_x=slip_x,
                    slip_y=float(v_rim @ ty), rolling_speed=float(v_center @ tx) - slip_x)
     return k, np.stack([normal, tx, ty]), point
 
@@ -380,7 +406,7 @@ class TireReference:
         J = np.zeros((n, nv))
         contacts = []
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(m, d, wheel, self.floors)
+            contact = wheel_contact(m, d, wheel, self.floors, p)
             contacts.append(contact)
             if contact is not None and normal_force(p, contact[0]) > 0:
                 jacp = np.zeros((3, nv))
@@ -485,7 +511,7 @@ class TireReference:
     def explicit_generalized(self, d, forces_per_wheel) -> np.ndarray:
         qfrc = np.zeros(self.m.nv)
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(self.m, d, wheel, self.floors)
+            contact = wheel_contact(self.m, d, wheel, self.floors, self.params)
             if contact is None or forces_per_wheel[w][0] <= 0:
                 continue
             k, frame, point = contact
@@ -501,7 +527,7 @@ class TireReference:
             return self.implicit_solve(d)[0]
         out = np.zeros((len(self.wheels), 3))
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(self.m, d, wheel, self.floors)
+            contact = wheel_contact(self.m, d, wheel, self.floors, self.params)
             if contact is not None:
                 out[w] = forces(self.params, contact[0], self._state(d.plugin_state, w))
         return out
@@ -519,7 +545,7 @@ class TireReference:
             _, _, J, contacts = self.implicit_solve(d)
         for w, wheel in enumerate(self.wheels):
             st = self._state(state, w)
-            contact = contacts[w] if implicit else wheel_contact(self.m, d, wheel, self.floors)
+            contact = contacts[w] if implicit else wheel_contact(self.m, d, wheel, self.floors, self.params)
             if contact is None:
                 reset_state(st)
                 continue

@@ -14,11 +14,12 @@
 #define SKIDSTEER_TIRE_EXPORT __attribute__((visibility("default")))
 
 // Version of the structs below (bumped when a field is added or changes meaning).
-#define SKIDSTEER_TIRE_CONTRACT_VERSION 1
+#define SKIDSTEER_TIRE_CONTRACT_VERSION 2  // 2: the integer kind
 
 typedef enum {
   SKIDSTEER_TIRE_NUMBER = 0,  // a decimal number (strtod), "inf" where not finite-only
   SKIDSTEER_TIRE_CHOICE = 1,  // one word of `choices`
+  SKIDSTEER_TIRE_INTEGER = 2, // a whole number within [low, high]
 } skidsteerTireAttributeKind;
 
 // One attribute.  A number is valid when it lies in [low, high] (an open end

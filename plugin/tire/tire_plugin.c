@@ -45,6 +45,8 @@ enum {
   ATTR_SLIDING_VELOCITY,
   ATTR_STIFFNESS_Y_LOAD_EXPONENT,
   ATTR_REFERENCE_LOAD,
+  ATTR_LUG_COUNT,
+  ATTR_LUG_DEPTH,
   TIRE_NATTRIBUTE
 };
 
@@ -155,6 +157,22 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "", "N", POSITIVE,
     "the load at which K_y holds: Sec. 3.3's platform, 225 N on four wheels, in the pulls "
     "that measured the tire's lateral stiffness; used only when n > 0"},
+  [ATTR_LUG_COUNT] = {
+    "lug_count", "", SKIDSTEER_TIRE_INTEGER, 0, "0", 0, 1000, 0, 0, 1,
+    "", "", "must be a whole number in [0, 1000] (0: a round wheel)",
+    "tread lugs per revolution: the rolling radius falls by up to lug_depth between "
+    "lugs, a line at lug_count times the wheel's rotation rate and its harmonics (a "
+    "lugged tyre on a hard floor; BorealTC's Husky shows 18, 36 and 54 on flooring and "
+    "asphalt, docs/real-data/borealtc.md); every wheel's lugs start in phase with its "
+    "joint angle (assumed); 0 (off): the round wheel of Ch. 4"},
+  [ATTR_LUG_DEPTH] = {
+    "lug_depth", "", SKIDSTEER_TIRE_NUMBER, 0, "0", 0, 0.05, 0, 0, 1,
+    "", "m", "must lie in [0, 0.05] m",
+    "the drop of the wheel centre midway between two lugs, as a polygon of lug_count "
+    "sides rolls (r (1 - cos(alpha)) / (1 - cos(pi / lug_count)) scaled to it, alpha the "
+    "angle from the nearest lug); a rigid polygon of radius r drops r (1 - cos(pi / "
+    "lug_count)), 2.5 mm for 18 lugs at 0.165 m; the tyre's carcass makes it less "
+    "(fitted: no public value); used only when lug_count > 0"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -211,6 +229,8 @@ static void fill_tables(void) {
 typedef struct {
   tireParams params;
   int implicit;        // 1: implicit coupling (the coupling attribute)
+  int lug_count;       // tread lugs per revolution (0: round wheels)
+  mjtNum lug_depth;    // the centre's drop midway between lugs, m
   int nwheel;
   int* wheel_body;     // body id of each wheel, in body order
   int* wheel_joint;    // its hinge joint (the axle)
@@ -312,7 +332,8 @@ static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
     }
     int ok = (a->low_open ? value > a->low : value >= a->low) &&
              (a->high_open ? value < a->high : value <= a->high) &&
-             (!a->finite || isfinite(value));
+             (!a->finite || isfinite(value)) &&
+             (a->kind != SKIDSTEER_TIRE_INTEGER || value == (double)(long long)value);
     if (!ok) {
       invalid(m, instance, a, text, value, a->rule);
       return -1;
@@ -324,7 +345,7 @@ static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
 
 
 static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius,
-                       int* implicit) {
+                       int* implicit, int* lug_count, mjtNum* lug_depth) {
   tireConfig cfg;
   if (read_config(m, instance, &cfg)) return -1;
   const skidsteerTireFloor* floor = &kFloors[cfg.choice[ATTR_FLOOR]];
@@ -352,6 +373,8 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   p->reference_load = cfg.value[ATTR_REFERENCE_LOAD];
   *radius = cfg.value[ATTR_RADIUS];
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
+  *lug_count = (int)cfg.value[ATTR_LUG_COUNT];
+  *lug_depth = cfg.value[ATTR_LUG_DEPTH];
   return 0;
 }
 
@@ -499,6 +522,26 @@ static void point_velocity(const mjModel* m, const mjData* d, int b, const mjtNu
 }
 
 
+// The angle (rad, in (-pi, pi]) of wheel w about its axle relative to its parent body
+// and its rate (rad/s), from the bodies' poses and velocities (xquat, cvel: those of
+// the start of the step also when `advance` calls, after qpos and qvel have moved on).
+static void wheel_angle(const mjModel* m, const mjData* d, const tireInstance* ti, int w,
+                        mjtNum* angle, mjtNum* rate) {
+  int body = ti->wheel_body[w], parent = m->body_parentid[body], joint = ti->wheel_joint[w];
+  // xquat_wheel = xquat_parent body_quat q_joint: q_joint = body_quat^-1 xquat_parent^-1 xquat_wheel
+  mjtNum inv_parent[4], inv_body[4], relative[4], q_joint[4], rotation[3];
+  mju_negQuat(inv_parent, d->xquat + 4 * parent);
+  mju_negQuat(inv_body, m->body_quat + 4 * body);
+  mju_mulQuat(relative, inv_parent, d->xquat + 4 * body);
+  mju_mulQuat(q_joint, inv_body, relative);
+  mju_quat2Vel(rotation, q_joint, 1);
+  *angle = mju_dot3(rotation, m->jnt_axis + 3 * joint);
+  mjtNum spin[3];
+  mju_sub3(spin, d->cvel + 6 * body, d->cvel + 6 * parent);
+  *rate = mju_dot3(spin, d->xaxis + 3 * joint);
+}
+
+
 // Contact of wheel w with the floor that compresses it most.  Fills the
 // kinematics, the contact frame (rows: normal n, rolling direction t_x,
 // lateral t_y) and the contact point.  Returns 0 when no floor is under the
@@ -510,6 +553,18 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
   mjtNum radius = ti->radius[w];
   const mjtNum* center = geom >= 0 ? d->geom_xpos + 3 * geom : d->xpos + 3 * body;
   const mjtNum* axle = d->xaxis + 3 * ti->wheel_joint[w];
+  // a lugged tread: the rolling radius of a polygon of lug_count sides, scaled to
+  // lug_depth, at the angle alpha of the wheel from its nearest lug
+  mjtNum drop_rate = 0;
+  if (ti->lug_count > 0 && ti->lug_depth > 0) {
+    mjtNum angle, angle_rate;
+    wheel_angle(m, d, ti, w, &angle, &angle_rate);
+    mjtNum pitch = 2 * mjPI / ti->lug_count;
+    mjtNum alpha = angle - pitch * floor(angle / pitch + 0.5);
+    mjtNum scale = ti->lug_depth / (1 - cos(pitch / 2));
+    radius -= scale * (1 - cos(alpha));
+    drop_rate = scale * sin(alpha) * angle_rate;
+  }
 
   int found = 0;
   mjtNum best = -mjMAXVAL, normal[3] = {0, 0, 1}, spread = 1;
@@ -565,7 +620,8 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
   point_velocity(m, d, body, point, v_rim);
   point_velocity(m, d, body, center, v_center);
   k->compression = best;
-  k->compression_rate = -mju_dot3(v_rim, n);
+  // the rim point's approach, less the shrinking of the rolling radius (lugs)
+  k->compression_rate = -mju_dot3(v_rim, n) - drop_rate * spread;
   k->slip_x = mju_dot3(v_rim, tx);
   k->slip_y = mju_dot3(v_rim, ty);
   k->rolling_speed = mju_dot3(v_center, tx) - k->slip_x;
@@ -595,7 +651,8 @@ static int tire_init(const mjModel* m, mjData* d, int instance) {
     return -1;
   }
   mjtNum radius_attr = 0;
-  if (read_params(m, instance, &ti->params, &radius_attr, &ti->implicit) ||
+  if (read_params(m, instance, &ti->params, &radius_attr, &ti->implicit, &ti->lug_count,
+                  &ti->lug_depth) ||
       find_wheels_and_floor(m, instance, radius_attr, ti)) {
     free_instance(ti);
     return -1;

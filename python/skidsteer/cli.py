@@ -348,6 +348,8 @@ def _diagnose_recordings(args: argparse.Namespace) -> int:
         _print_json(result)
         return 0
     _print_verdict(result, f"  floor: {result['floor_note']}")
+    vibration = result["vibration"]
+    print(f"vibration: {vibration['verdict']}: {vibration['reason']}")
     print(f"{len(result['runs'])} segments of {len({r['run'] for r in result['runs']})} runs; "
           f"report: {args.out}/report.md ({result['wall_time_s']} s)")
     for s in result["skipped"]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from scipy import signal
 
 MIN_SEGMENT_S = 3.0  # shorter spans are transitions, not trials
 SETTLE_S = 1.0  # the first second of a segment is the robot taking up the command
@@ -103,3 +104,81 @@ def yaw_features(segment: Segment, time_s, gyro_z, left_mps, right_mps,
     turning = abs(measured) >= 0.2 and abs(measured) >= 0.02 * abs(predicted)
     return {"yaw_rate_deg_s": measured, "yaw_rate_predicted_deg_s": predicted,
             "chi": predicted / measured if turning and abs(predicted) > 0 else None}
+
+
+# ------------------------------------------------------------ vibration of a segment
+#
+# What real spectra hold (BorealTC's Husky on flooring and asphalt, 0.23-0.78 m/s):
+# lines at 17.3 and 34.6 Hz per m/s of rim speed, i.e. at 18 and 36 times the wheels'
+# rotation rate (wheel orders; a lugged tyre's tread), on top of a broad floor.  A
+# line that follows the wheels is seen on an order axis: the PSD read at k times the
+# wheel rate, for every order k whose frequency the record can hold.
+SPECTRUM_NPERSEG = 512  # 0.2 Hz bins at 100 Hz; shorter segments: one Hann window
+MIN_LINE_HZ = 1.0  # below: the robot's manoeuvres and gyro drift, not lines
+NYQUIST_SHARE = 0.9  # above 0.9 x Nyquist the logger's anti-alias filter rolls off
+BACKGROUND_HZ = 2.0  # a line's background: the PSD's median within 2 Hz beside it
+MAX_ORDER = 60  # the highest wheel order examined (36 is the highest line seen)
+
+
+def band_top_hz(fs: float, top_hz: float = 50.0) -> float:
+    """The highest frequency a record at fs can be judged at: top_hz or NYQUIST_SHARE of
+    the Nyquist frequency, whichever is lower."""
+    return min(top_hz, NYQUIST_SHARE * fs / 2)
+
+
+def wheel_order_lines(accel, fs: float, wheel_rate_hz: float, max_order: int = MAX_ORDER,
+                      axis: int = 0) -> dict:
+    """Lines at multiples of a wheel's rotation rate in an accelerometer record.
+
+    accel: samples along `axis` (any number of channels), fs in Hz, wheel_rate_hz: the
+    wheels' rotation rate (rim speed / 2 pi r).  Returns, for orders k = 1..max_order:
+    "orders", "frequency_hz" (k x rate), "prominence_db" (per order and channel: the
+    largest PSD bin within one bin width of the line over the median PSD of the bins
+    from three bin widths to BACKGROUND_HZ beside it) and "power" (the PSD of those
+    line bins times the bin width, (units)^2), plus "bin_hz".  An order whose line lies
+    below MIN_LINE_HZ or above band_top_hz(fs) is NaN: the record cannot show it.
+    Neighbouring orders closer than a bin are not told apart: a line shows at the
+    orders around it, and the features take the local maxima over orders."""
+    x = np.moveaxis(np.asarray(accel, float), axis, 0)
+    channels = x.reshape(len(x), -1)
+    orders = np.arange(1, max_order + 1)
+    shape = (len(orders), channels.shape[1])
+    out = {"orders": orders, "frequency_hz": orders * float(wheel_rate_hz),
+           "prominence_db": np.full(shape, np.nan), "power": np.full(shape, np.nan),
+           "bin_hz": None}
+    if len(channels) < 16 or not np.isfinite(wheel_rate_hz) or wheel_rate_hz <= 0:
+        return out
+    freq, psd = signal.welch(channels, fs=fs, nperseg=min(SPECTRUM_NPERSEG, len(channels)),
+                             axis=0, detrend="linear")
+    step = float(freq[1] - freq[0])
+    out["bin_hz"] = step
+    top = band_top_hz(fs)
+    for i, f in enumerate(out["frequency_hz"]):
+        if f < MIN_LINE_HZ or f > top:
+            continue
+        distance = np.abs(freq - f)
+        line = distance <= step
+        beside = (distance >= 3 * step) & (distance <= BACKGROUND_HZ)
+        if not line.any() or beside.sum() < 3:
+            continue
+        background = np.median(psd[beside], axis=0)
+        peak = psd[line].max(axis=0)
+        with np.errstate(divide="ignore"):
+            out["prominence_db"][i] = 10 * np.log10(peak / background)
+        out["power"][i] = psd[line].sum(axis=0) * step
+    return out
+
+
+def order_lines(prominence_db, min_db: float) -> list[int]:
+    """Indices of the local maxima over orders (axis 0) of a prominence curve that reach
+    min_db: the lines, each once though it shows at its neighbouring orders."""
+    p = np.asarray(prominence_db, float)
+    out = []
+    for i in range(len(p)):
+        if not np.isfinite(p[i]) or p[i] < min_db:
+            continue
+        left = p[i - 1] if i > 0 and np.isfinite(p[i - 1]) else -np.inf
+        right = p[i + 1] if i + 1 < len(p) and np.isfinite(p[i + 1]) else -np.inf
+        if p[i] >= left and p[i] > right:
+            out.append(i)
+    return out

@@ -25,15 +25,20 @@ over segments whose predicted yaw rate is at least MIN_TURN_DEG_S.  The verdict:
 from __future__ import annotations
 
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from skidsteer.data.files import write_json, write_text
-from skidsteer.data.imu import ImuDataset, ImuRun, read_bag, read_imu_folder
+from skidsteer.data.imu import ImuDataset, ImuRun, WheelSpeeds, read_bag, read_imu_folder
 from skidsteer.diagnosis.motion import MOTION_CAUSES
-from skidsteer.features.segments import Segment, segments, yaw_features
+from skidsteer.diagnosis.tread import TREAD_LUGS
+from skidsteer.features import signals
+from skidsteer.features.segments import (MIN_LINE_HZ, SETTLE_S, Segment, band_top_hz,
+                                         order_lines, segments, wheel_order_lines,
+                                         yaw_features)
 from skidsteer.reports.markdown import table
 from skidsteer.robot import Setup, load_model, load_robot
 from skidsteer.simulation.backends import LocalBackend
@@ -53,6 +58,24 @@ EXPLAINED_SHARE = 0.5  # a cause must remove at least half of the held-out discr
 FIT_GRID = 11  # points of the cause's prior the surrogate is simulated at (linear between)
 SURROGATE_COMMANDS = 3  # representative commands of the surrogate (terciles of |yaw rate|)
 SURROGATE_S = 8.0  # the constant-command swivel the fit uses per distinct command
+# Vibration (the real spectra's wheel-order lines and broad level; features.segments).
+# A line: a local maximum over wheel orders of the segments' median prominence of at
+# least LINE_DB: its PSD bin 4x the background's median.  One Welch bin of K >= 2
+# averaged Hann windows scatters by about +-3 dB (chi-square with 2K degrees of
+# freedom, 90 %), the median over >= MIN_SCATTER_SEGMENTS segments by less: 6 dB is
+# clear of it (set before looking at the data).  A measured line the model shows
+# LINE_DB weaker is missing from the model (and the other way round, extra).
+LINE_DB = 6.0
+# and a line must carry at least this power ((m/s^2)^2): (1e-3 m/s^2)^2, about a MEMS
+# accelerometer's noise in one 0.2 Hz bin (150 ug/sqrt(Hz)); below it a "line" is the
+# simulation's numerical floor, which no recording could show
+MIN_LINE_POWER = 1e-6
+# the broad level: per axis the median over a kind's segments of log10(RMS) in
+# [MIN_LINE_HZ, band_top_hz(fs)], within NOISE_Z robust standard errors of the
+# measured median or MIN_RMS_RATIO of it, like chi's rule (10 %: settling and the
+# segments' differing commands move a segment's RMS more than its yaw rate)
+MIN_RMS_RATIO = 1.10
+AXES = "xyz"
 
 
 def run_segments(run: ImuRun, min_duration_s: float | None = None) -> list[Segment]:
@@ -69,6 +92,29 @@ def run_yaw_features(segment: Segment, run: ImuRun, track_m: float) -> dict:
     """features.yaw_features of a segment of a run with wheel speeds."""
     left, right = run.wheels.at(run.time_s)
     return yaw_features(segment, run.time_s, run.gyro[:, 2], left, right, track_m)
+
+
+def run_vibration(segment: Segment, run: ImuRun, wheel_radius_m: float) -> dict:
+    """The segment's vibration, from SETTLE_S after its start: per axis the RMS (m/s^2)
+    in band_hz = [MIN_LINE_HZ, band_top_hz(fs)] (the record's Nyquist frequency sets
+    the top) and the wheel-order prominence (orders x axes, dB; features.segments), at
+    each side's wheel rate (the command's: recordings log set points) taking the larger
+    of the two sides (an arc's sides turn at two rates)."""
+    window = (run.time_s >= segment.start_s + SETTLE_S) & (run.time_s <= segment.end_s)
+    fs = run.sample_rate_hz
+    band = [MIN_LINE_HZ, band_top_hz(fs)]
+    accel = run.accel[window]
+    if len(accel) < 16:
+        return {"band_hz": band, "rms_m_s2": None, "prominence_db": None, "power": None}
+    freq, psd = signals.welch_spectrum(accel, fs)
+    rms = np.sqrt(signals.band_power(freq, psd, band))
+    sides = [wheel_order_lines(accel, fs, abs(v) / (2 * np.pi * wheel_radius_m))
+             for v in (segment.left_mps, segment.right_mps)]
+    with np.errstate(invalid="ignore"):
+        prominence = np.fmax(sides[0]["prominence_db"], sides[1]["prominence_db"])
+        power = np.fmax(sides[0]["power"], sides[1]["power"])
+    return {"band_hz": band, "rms_m_s2": [float(x) for x in rms], "prominence_db": prominence,
+            "power": power}
 
 
 def read_recordings(path, track_m: float) -> ImuDataset:
@@ -112,19 +158,29 @@ def diagnose_recordings(dataset, out, model: str = "husky_a200", progress: bool 
     finally:
         bar.close()
         backend.close()
-    rows = []
+    rows, spectra = [], []
     for index, (run, sim) in enumerate(zip(usable, simulated)):
         for seg in run_segments(run):
             measured = run_yaw_features(seg, run, track)
             model_side = run_yaw_features(seg, sim, track)
+            vib_measured = run_vibration(seg, run, geometry.wheel_radius)
+            vib_simulated = run_vibration(seg, sim, geometry.wheel_radius)
+            spectra.append((vib_measured, vib_simulated))
             rows.append({"run": run.path.name, "segment": [seg.start_s, seg.end_s],
                          "kind": seg.kind, "left_mps": seg.left_mps, "right_mps": seg.right_mps,
                          "yaw_rate_measured_deg_s": measured["yaw_rate_deg_s"],
                          "yaw_rate_predicted_deg_s": measured["yaw_rate_predicted_deg_s"],
                          "yaw_rate_simulated_deg_s": model_side["yaw_rate_deg_s"],
                          "chi_measured": measured["chi"], "chi_simulated": model_side["chi"],
+                         "accel_band_hz": vib_measured["band_hz"],
+                         "accel_rms_measured_m_s2": vib_measured["rms_m_s2"],
+                         "accel_rms_simulated_m_s2": vib_simulated["rms_m_s2"],
                          "half": "fit" if index % 2 == 0 else "held_out"})
     result = _verdict(rows, floor is not None, floor_note, setup, timestep)
+    result["vibration"] = vibration_verdict(rows, spectra, floor is not None, floor_note)
+    if floor is not None and result["vibration"].get("unexplained_lines"):
+        explain_lines(result["vibration"], rows, spectra, setup, timestep,
+                      usable[0].sample_rate_hz, geometry.wheel_radius, nthread)
     result.update({"model": model, "terrain": terrain, "floor": setup.floor,
                    "floor_note": floor_note, "dataset": str(dataset),
                    "runs": rows, "skipped": skipped,
@@ -315,6 +371,265 @@ def _group_of(row: dict, groups: list[dict]) -> int:
     return len(groups) - 1
 
 
+def vibration_verdict(rows: list[dict], spectra: list, rigid_floor: bool,
+                      floor_note: str) -> dict:
+    """The vibration of each kind of segment (with at least MIN_SCATTER_SEGMENTS), model
+    against recording: the wheel-order lines (LINE_DB over their background and
+    MIN_LINE_POWER) and the broad RMS per axis (NOISE_Z robust standard errors of log10
+    RMS, at least MIN_RMS_RATIO).  spectra: per row, run_vibration's (measured,
+    simulated)."""
+    kinds = {}
+    for kind in ("straight", "turn_in_place", "arc"):
+        index = [i for i, r in enumerate(rows) if r["kind"] == kind
+                 and r["accel_rms_measured_m_s2"] is not None
+                 and spectra[i][0]["prominence_db"] is not None]
+        if len(index) < MIN_SCATTER_SEGMENTS:
+            continue
+        with warnings.catch_warnings():  # orders a record cannot show are NaN
+            warnings.simplefilter("ignore", RuntimeWarning)
+            measured, simulated = ({key: np.nanmedian([spectra[i][side][key] for i in index],
+                                                      axis=0) for key in ("prominence_db", "power")}
+                                   for side in (0, 1))
+        found = []
+        for a, axis in enumerate(AXES):
+            for side, this, other in (("recording", measured, simulated),
+                                      ("model", simulated, measured)):
+                audible = np.where(this["power"][:, a] >= MIN_LINE_POWER,
+                                   this["prominence_db"][:, a], np.nan)
+                for o in order_lines(audible, LINE_DB):
+                    if any(f["order"] == o + 1 and f["axis"] == axis for f in found):
+                        continue
+                    own, theirs = this["prominence_db"][o, a], other["prominence_db"][o, a]
+                    shown = (np.isfinite(theirs) and theirs >= own - LINE_DB
+                             and other["power"][o, a] >= MIN_LINE_POWER)
+                    db = {"recording": own, "model": theirs} if side == "recording" else \
+                        {"recording": theirs, "model": own}
+                    power = (this, other) if side == "recording" else (other, this)
+                    found.append({"order": o + 1, "axis": axis, "in": side,
+                                  "measured_db": _num(db["recording"]),
+                                  "simulated_db": _num(db["model"]),
+                                  "measured_power": _num(power[0]["power"][o, a]),
+                                  "simulated_power": _num(power[1]["power"][o, a]),
+                                  "missing": not shown})
+        rms = {}
+        for a, axis in enumerate(AXES):
+            m_log = _summary([np.log10(rows[i]["accel_rms_measured_m_s2"][a]) for i in index])
+            s_log = _summary([np.log10(rows[i]["accel_rms_simulated_m_s2"][a]) for i in index])
+            tolerance = max(NOISE_Z * m_log["stderr"], np.log10(MIN_RMS_RATIO))
+            rms[axis] = {"measured_m_s2": 10 ** m_log["median"],
+                         "simulated_m_s2": 10 ** s_log["median"],
+                         "ratio": 10 ** (s_log["median"] - m_log["median"]),
+                         "tolerance_ratio": 10 ** tolerance,
+                         "discrepant": abs(s_log["median"] - m_log["median"]) > tolerance}
+        kinds[kind] = {"segments": len(index), "lines": found, "rms": rms,
+                       "order_prominence_db": {"measured": _rounded(measured["prominence_db"]),
+                                               "simulated": _rounded(simulated["prominence_db"])}}
+    out = {"features": "wheel-order lines (prominence over wheel orders, local maxima of at "
+                       f"least {LINE_DB:g} dB) and RMS per axis in the band the records hold",
+           "line_min_db": LINE_DB, "kinds": kinds, "unexplained_lines": [], "loud": [],
+           "cause": None, "parameters": {}, "intervals": {}, "gain": None}
+    if not kinds:
+        out.update(verdict="unexplained", reason=f"fewer than {MIN_SCATTER_SEGMENTS} segments "
+                   "of any kind with a spectrum: nothing to compare")
+        return out
+    missing = [(k, f) for k, v in kinds.items() for f in v["lines"] if f["missing"]]
+    loud = [(k, a, e["ratio"]) for k, v in kinds.items() for a, e in v["rms"].items()
+            if e["discrepant"]]
+    if not missing and not loud:
+        out.update(verdict="no-discrepancy", reason="every wheel-order line and every axis's "
+                   "RMS within the segments' scatter")
+        return out
+    said = []
+    in_recording = sorted({f["order"] for _, f in missing if f["in"] == "recording"})
+    in_model = sorted({f["order"] for _, f in missing if f["in"] == "model"})
+    if in_recording:
+        said.append(f"the recordings hold lines at wheel orders {_orders(in_recording)} "
+                    f"({', '.join(sorted({k for k, f in missing if f['in'] == 'recording'}))}) "
+                    "that the model lacks")
+    if in_model:
+        said.append(f"the model has lines at wheel orders {_orders(in_model)} the recordings lack")
+    if loud:
+        said.append("RMS model/recording " + ", ".join(f"{k} a_{a} {r:.2g}" for k, a, r in loud))
+    why = ""
+    if not rigid_floor:
+        why = f"; {floor_note}: deformable ground's vibration has no candidate"
+    out.update(verdict="unexplained", reason="; ".join(said) + why,
+               unexplained_lines=[{"kind": k, "order": f["order"], "axis": f["axis"]}
+                                  for k, f in missing if f["in"] == "recording"],
+               loud=[{"kind": k, "axis": a} for k, a, _ in loud])
+    return out
+
+
+TREAD_KIND = "straight"  # both sides at one wheel rate: the lines are sharp
+TREAD_GRID = 6  # depths of the prior the surrogate is simulated at (log-log between)
+TREAD_SPEEDS = 3  # representative speeds (terciles of the fit half's segments)
+# a line's power is judged within NOISE_Z robust standard errors of the segments'
+# median log power, and never finer than 3 dB (a Welch line estimate of a few
+# averages scatters by +-1.5 dB; the replay's wheel phases drift from run to run)
+MIN_LINE_POWER_DB = 3.0
+
+
+def explain_lines(vibration: dict, rows: list[dict], spectra: list, setup, timestep,
+                  fs: float, wheel_radius_m: float, nthread: int = 2) -> None:
+    """Fits the tread (diagnosis.tread) to the recorded lines of the TREAD_KIND
+    segments the model lacks, on the even-numbered runs, and judges it on the others:
+    its lines (power per order and axis) and RMS per axis against the held-out
+    segments' medians.  lug_count: lug_count_of the lines; lug_depth_m: fitted
+    through a surrogate, a straight run at up to TREAD_SPEEDS speeds at TREAD_GRID
+    depths, interpolated log-log.  Updates vibration in place (cause, parameters,
+    intervals, gain, verdict, reason)."""
+    found = [(f["order"], AXES.index(f["axis"])) for f in vibration["unexplained_lines"]
+             if f["kind"] == TREAD_KIND]
+    index = [i for i, r in enumerate(rows) if r["kind"] == TREAD_KIND
+             and spectra[i][0]["power"] is not None]
+    count = lug_count_of([order for order, _ in found])
+    if count is None or not index:
+        vibration["reason"] += (f"; no {TREAD_KIND} segments with a line and one of its "
+                                "harmonics to fit a cause on: the tread (diagnosis.tread) is "
+                                "not tried")
+        return
+    # the lines at multiples of the count (within an order: a line shows at its
+    # neighbours), each judged at its exact multiple
+    targets = sorted({(count * max(1, round(o / count)), a) for o, a in found
+                      if abs(o - count * round(o / count)) <= 1 and round(o / count) >= 1})
+    speed = np.array([(abs(rows[i]["left_mps"]) + abs(rows[i]["right_mps"])) / 2 for i in index])
+    fit = [k for k, i in enumerate(index) if rows[i]["half"] == "fit"]
+    held = [k for k, i in enumerate(index) if rows[i]["half"] == "held_out"] or fit
+    edges = np.quantile(speed[fit], np.linspace(0, 1, TREAD_SPEEDS + 1)[1:-1])
+    group = np.searchsorted(edges, speed, side="right")
+    speeds = [float(np.median(speed[fit][group[fit] == g])) if np.any(group[fit] == g)
+              else float(np.median(speed[group == g])) for g in range(TREAD_SPEEDS)]
+    depths = TREAD_LUGS.main.from_unit(np.linspace(0, 1, TREAD_GRID))
+    models = [load_model(setup, timestep=timestep, edit=(
+        lambda spec, d=d: TREAD_LUGS.apply(spec, TREAD_LUGS.parameters(d, {"lug_count": count}), 0)))
+        for d in depths]
+    surrogate = [_straight_schedule(v, fs) for v in speeds]
+    backend = LocalBackend(nthread)
+    try:
+        sims = list(backend.map(replay, [(mm, run) for mm in models for run in surrogate]))
+    finally:
+        backend.close()
+    # model log10 line power and RMS: (depth, speed group, target) and (depth, group, axis)
+    line_model = np.empty((len(depths), len(speeds), len(targets)))
+    rms_model = np.empty((len(depths), len(speeds), len(AXES)))
+    for j, sim in enumerate(sims):
+        d, g = divmod(j, len(speeds))
+        seg = Segment(sim.path.name, 0.0, float(sim.time_s[-1]), TREAD_KIND, speeds[g], speeds[g])
+        vib = run_vibration(seg, sim, wheel_radius_m)
+        line_model[d, g] = [_log_power(vib["power"][o - 1, a]) for o, a in targets]
+        rms_model[d, g] = np.log10(np.maximum(vib["rms_m_s2"], 1e-30))
+    fine = np.exp(np.linspace(np.log(depths[0]), np.log(depths[-1]), 401))
+
+    def curve(values):  # (depth, group) -> (fine, group), log-log interpolation
+        return np.array([np.interp(np.log(fine), np.log(depths), values[:, g])
+                         for g in range(values.shape[1])]).T
+
+    line_curves = [curve(line_model[:, :, t]) for t in range(len(targets))]
+    # NaN where a segment's record cannot show the order (features.segments)
+    measured_log = np.array([[_log_power(spectra[i][0]["power"][o - 1, a]) for o, a in targets]
+                             for i in index])
+    tolerance = np.array([max(NOISE_Z * (_summary(_finite(measured_log[:, t]))["stderr"] or 0),
+                              MIN_LINE_POWER_DB / 10) for t in range(len(targets))])
+
+    def errors(half, fine_index):
+        model = np.array([[line_curves[t][fine_index, group[k]] for t in range(len(targets))]
+                          for k in half])
+        both = np.isfinite(model) & np.isfinite(measured_log[half])
+        return np.array([np.median(model[both[:, t], t]) - np.median(measured_log[half][both[:, t], t])
+                         if both[:, t].any() else np.nan for t in range(len(targets))])
+
+    score = np.array([np.nansum(np.abs(errors(fit, f)) / tolerance) for f in range(len(fine))])
+    best = int(np.argmin(score))
+    ok = fine[score <= score[best] + len(targets)]
+    held_error = errors(held, best)
+    closed = np.abs(np.nan_to_num(held_error, nan=np.inf)) <= tolerance
+    rms_curves = [curve(rms_model[:, :, a]) for a in range(len(AXES))]
+    rms = {}
+    for a, axis in enumerate(AXES):
+        measured = np.log10([rows[index[k]]["accel_rms_measured_m_s2"][a] for k in held])
+        model = np.median([rms_curves[a][best, group[k]] for k in held])
+        tol = max(NOISE_Z * _summary(measured)["stderr"], np.log10(MIN_RMS_RATIO))
+        rms[axis] = {"held_out_model_m_s2": float(10 ** model),
+                     "held_out_measured_m_s2": float(10 ** np.median(measured)),
+                     "closed": bool(abs(model - np.median(measured)) <= tol)}
+    per_line = [{"order": o, "axis": AXES[a], "held_out_error_db": float(10 * e),
+                 "tolerance_db": float(10 * t), "closed": bool(c)}
+                for (o, a), e, t, c in zip(targets, held_error, tolerance, closed)]
+    parameters = {"lug_count": count, TREAD_LUGS.main.name: float(fine[best])}
+    vibration.update(cause=None, parameters=parameters,
+                     intervals={TREAD_LUGS.main.name: [float(ok.min()), float(ok.max())]},
+                     gain={"cause": TREAD_LUGS.name, "kind": TREAD_KIND, "lines": per_line,
+                           "rms": rms, "surrogate": {"speeds_mps": speeds,
+                                                     "depths_m": depths.tolist()}})
+    left = [f"{f['order']} a_{f['axis']} ({f['held_out_error_db']:+.0f} dB)" for f in per_line
+            if not f["closed"]]
+    rms_left = [f"a_{a} {e['held_out_model_m_s2']:.3f} against {e['held_out_measured_m_s2']:.3f}"
+                for a, e in rms.items() if not e["closed"]]
+    others = sorted({f["kind"] for f in vibration["unexplained_lines"] if f["kind"] != TREAD_KIND}
+                    | {f["kind"] for f in vibration["loud"] if f["kind"] != TREAD_KIND})
+    fitted = (f"{TREAD_LUGS.name} ({count} lugs, depth {fine[best] * 1e3:.2g} mm) fitted on the "
+              f"even-numbered runs' {TREAD_KIND} segments")
+    if not left and not rms_left and not others:
+        vibration.update(verdict="explained", cause=TREAD_LUGS.name, reason=(
+            f"{fitted}; on the others every line (orders {_orders(sorted({o for o, _ in targets}))}) "
+            "and every axis's RMS within the segments' scatter"))
+        return
+    said = [f"lines left: {', '.join(left)}" if left else "every line closed"]
+    if rms_left:
+        said.append(f"RMS (m/s^2) left: {', '.join(rms_left)}")
+    if others:
+        said.append(f"not judged by the fit: {', '.join(others)}")
+    vibration["reason"] += (f"; the most likely cause, {fitted}, on the held-out runs: "
+                            f"{'; '.join(said)}: what is left has no candidate")
+
+
+def lug_count_of(orders) -> int | None:
+    """The fundamental of a set of line orders: the order n (one of them) the largest
+    share of whose multiples up to the highest line lie within one order of a line,
+    needing at least two (the line and a harmonic); ties to the lower n.  None without
+    one.  A tread of n lugs makes lines at n, 2n, 3n...; a stray line has few
+    multiples among the others."""
+    orders = sorted(set(int(o) for o in orders))
+    best, best_share = None, 0.0
+    for n in orders:
+        multiples = range(n, orders[-1] + 2, n)
+        hits = sum(any(abs(o - k) <= 1 for o in orders) for k in multiples)
+        share = hits / len(multiples)
+        if hits >= 2 and share > best_share:
+            best, best_share = n, share
+    return best
+
+
+def _log_power(power: float) -> float:
+    """log10 of a line power, NaN kept (an order the record cannot show), zero floored."""
+    return float(np.log10(max(power, 1e-30))) if np.isfinite(power) else np.nan
+
+
+def _finite(values) -> np.ndarray:
+    v = np.asarray(values, float)
+    return v[np.isfinite(v)]
+
+
+def _straight_schedule(speed_mps: float, fs: float) -> ImuRun:
+    """A straight run at one wheel speed for SURROGATE_S at fs (its IMU is replayed)."""
+    t = np.arange(0, SURROGATE_S, 1 / fs)
+    wheels = WheelSpeeds(np.array([0.0]), np.array([speed_mps]), np.array([speed_mps]))
+    return ImuRun(Path(f"straight_{speed_mps:.3f}.csv"), t, np.zeros((len(t), 3)),
+                  np.zeros((len(t), 3)), wheels)
+
+
+def _num(x) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _rounded(a: np.ndarray) -> list:
+    return [[None if not np.isfinite(v) else round(float(v), 1) for v in row] for row in a]
+
+
+def _orders(orders: list[int]) -> str:
+    return ", ".join(str(o) for o in orders)
+
+
 def render(result: dict) -> str:
     md = [f"# Diagnosis of {result['dataset']} on {result['model']}\n\n",
           f"Floor: {result['floor_note']}.\n\n",
@@ -336,6 +651,17 @@ def render(result: dict) -> str:
         interval = result["intervals"].get(name)
         md.append(f"- {name} = {value:.3g}" + (f" (interval {interval[0]:.3g} to "
                                                f"{interval[1]:.3g})" if interval else "") + "\n")
+    vib = result.get("vibration")
+    if vib:
+        md.append(f"\n**Vibration: {vib['verdict']}**. {vib['reason']}\n\n")
+        for kind, v in vib["kinds"].items():
+            lines = ", ".join(f"{f['order']} on a_{f['axis']} ({_f(f['measured_db'])} dB "
+                              f"recorded, {_f(f['simulated_db'])} dB model)"
+                              for f in v["lines"]) or "none"
+            rms = ", ".join(f"a_{a} {e['measured_m_s2']:.3f} recorded, {e['simulated_m_s2']:.3f} "
+                            f"model" for a, e in v["rms"].items())
+            md.append(f"- {kind} ({v['segments']} segments): wheel-order lines {lines}; RMS "
+                      f"(m/s^2) {rms}\n")
     md.append("\n## Segments\n\n")
     md.append(table(["run", "segment (s)", "kind", "yaw measured", "predicted", "simulated",
                      "chi measured", "chi simulated"],

@@ -52,7 +52,7 @@ class _Layout(ctypes.Structure):
                 ("nsensor_wheel", ctypes.c_int)]
 
 
-CONTRACT_VERSION = 1  # SKIDSTEER_TIRE_CONTRACT_VERSION this module reads
+CONTRACT_VERSION = 2  # SKIDSTEER_TIRE_CONTRACT_VERSION this module reads (2: integer kind)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,7 +61,7 @@ class Attribute:
 
     name: str
     symbol: str
-    kind: str  # "number" or "choice"
+    kind: str  # "number", "integer" or "choice"
     default: float | str | None  # a number, a choice's word, or None ("from floor", "from geom")
     default_text: str
     low: float
@@ -83,7 +83,8 @@ class Attribute:
             return False
         above = value > self.low if self.low_open else value >= self.low
         below = value < self.high if self.high_open else value <= self.high
-        return above and below
+        whole = self.kind != "integer" or value == int(value)
+        return above and below and whole
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,7 +137,7 @@ def attributes() -> dict[str, Attribute]:
     n = _library().skidsteer_tire_attributes(ctypes.byref(rows))
     out = {}
     for row in rows[:n]:
-        kind = "choice" if row.kind == 1 else "number"
+        kind = {1: "choice", 2: "integer"}.get(row.kind, "number")
         if kind == "choice":
             default = _text(row.default_text)
         else:
