@@ -86,10 +86,10 @@ What the table says, and what it does not:
   hidden-effect data), identifies 18 lugs from the lines and fits a depth of
   1 mm (asphalt) to 3.2 mm (flooring), but puts the line where a rolling polygon
   puts it, on a_z (at order 18 too strong by 13-30 dB on the held-out runs)
-  with almost nothing fore-aft (a_x short by 12-50 dB): what makes these lines pushes the robot along its track, which a
-  radial tread does not.  A drivetrain order (each side's motor drives both
-  wheels: a gear or chain meshing 18 or 36 times per wheel revolution) is the
-  candidate this points to; nothing public here says how the Husky's wheels are
+  with almost nothing fore-aft (a_x short by 12-50 dB): what makes these
+  lines pushes the robot along its track, which a radial tread does not.  A
+  drivetrain order (each side's motor drives both wheels: a gear or chain
+  meshing 18 or 36 times per wheel revolution) is the candidate this points to; nothing public here says how the Husky's wheels are
   driven, so it is left as the finding.  On sandy loam and snow no line
   stands out (the lugs sink in), and the vibration verdict is "unexplained"
   with the ground named as the reason.

@@ -110,7 +110,7 @@ def yaw_features(segment: Segment, time_s, gyro_z, left_mps, right_mps,
 #
 # What real spectra hold (BorealTC's Husky on flooring and asphalt, 0.23-0.78 m/s):
 # lines at 17.3 and 34.6 Hz per m/s of rim speed, i.e. at 18 and 36 times the wheels'
-# rotation rate (wheel orders; a lugged tyre's tread), on top of a broad floor.  A
+# rotation rate (wheel orders: something turning with the wheels), on a broad floor.  A
 # line that follows the wheels is seen on an order axis: the PSD read at k times the
 # wheel rate, for every order k whose frequency the record can hold.
 SPECTRUM_NPERSEG = 512  # 0.2 Hz bins at 100 Hz; shorter segments: one Hann window

@@ -20,6 +20,12 @@ over segments whose predicted yaw rate is at least MIN_TURN_DEG_S.  The verdict:
 - ``unexplained``: otherwise, with the most likely cause and what it closes and
   leaves; or on a terrain that is not a rigid floor of the model's (deformable
   ground is not rigid-floor friction), with that reason.
+
+The vibration has its own verdict (``vibration_verdict``, result["vibration"]): per
+kind of segment, the wheel-order lines and the RMS per axis within the band each
+record holds; lines the recordings hold and the model lacks are fitted with the
+tread (``explain_lines``, diagnosis.tread) on the even-numbered runs and judged on
+the others.
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from skidsteer.data.imu import ImuDataset, ImuRun, WheelSpeeds, read_bag, read_i
 from skidsteer.diagnosis.motion import MOTION_CAUSES
 from skidsteer.diagnosis.tread import TREAD_LUGS
 from skidsteer.features import signals
+from skidsteer.features.extract import AXES
 from skidsteer.features.segments import (MIN_LINE_HZ, SETTLE_S, Segment, band_top_hz,
                                          order_lines, segments, wheel_order_lines,
                                          yaw_features)
@@ -75,7 +82,6 @@ MIN_LINE_POWER = 1e-6
 # measured median or MIN_RMS_RATIO of it, like chi's rule (10 %: settling and the
 # segments' differing commands move a segment's RMS more than its yaw rate)
 MIN_RMS_RATIO = 1.10
-AXES = "xyz"
 
 
 def run_segments(run: ImuRun, min_duration_s: float | None = None) -> list[Segment]:
@@ -399,23 +405,22 @@ def vibration_verdict(rows: list[dict], spectra: list, rigid_floor: bool,
                 for o in order_lines(audible, LINE_DB):
                     if any(f["order"] == o + 1 and f["axis"] == axis for f in found):
                         continue
-                    own, theirs = this["prominence_db"][o, a], other["prominence_db"][o, a]
-                    shown = (np.isfinite(theirs) and theirs >= own - LINE_DB
+                    # shown on the other side: as prominent within LINE_DB, and audible
+                    theirs = other["prominence_db"][o, a]
+                    shown = (np.isfinite(theirs) and theirs >= this["prominence_db"][o, a] - LINE_DB
                              and other["power"][o, a] >= MIN_LINE_POWER)
-                    db = {"recording": own, "model": theirs} if side == "recording" else \
-                        {"recording": theirs, "model": own}
-                    power = (this, other) if side == "recording" else (other, this)
                     found.append({"order": o + 1, "axis": axis, "in": side,
-                                  "measured_db": _num(db["recording"]),
-                                  "simulated_db": _num(db["model"]),
-                                  "measured_power": _num(power[0]["power"][o, a]),
-                                  "simulated_power": _num(power[1]["power"][o, a]),
+                                  "measured_db": _num(measured["prominence_db"][o, a]),
+                                  "simulated_db": _num(simulated["prominence_db"][o, a]),
+                                  "measured_power": _num(measured["power"][o, a]),
+                                  "simulated_power": _num(simulated["power"][o, a]),
                                   "missing": not shown})
         rms = {}
         for a, axis in enumerate(AXES):
-            m_log = _summary([np.log10(rows[i]["accel_rms_measured_m_s2"][a]) for i in index])
+            measured_log = [np.log10(rows[i]["accel_rms_measured_m_s2"][a]) for i in index]
+            m_log = _summary(measured_log)
             s_log = _summary([np.log10(rows[i]["accel_rms_simulated_m_s2"][a]) for i in index])
-            tolerance = max(NOISE_Z * m_log["stderr"], np.log10(MIN_RMS_RATIO))
+            tolerance = _log_tolerance(measured_log, np.log10(MIN_RMS_RATIO))
             rms[axis] = {"measured_m_s2": 10 ** m_log["median"],
                          "simulated_m_s2": 10 ** s_log["median"],
                          "ratio": 10 ** (s_log["median"] - m_log["median"]),
@@ -528,8 +533,8 @@ def explain_lines(vibration: dict, rows: list[dict], spectra: list, setup, times
     # NaN where a segment's record cannot show the order (features.segments)
     measured_log = np.array([[_log_power(spectra[i][0]["power"][o - 1, a]) for o, a in targets]
                              for i in index])
-    tolerance = np.array([max(NOISE_Z * (_summary(_finite(measured_log[:, t]))["stderr"] or 0),
-                              MIN_LINE_POWER_DB / 10) for t in range(len(targets))])
+    tolerance = np.array([_log_tolerance(measured_log[:, t], MIN_LINE_POWER_DB / 10)
+                          for t in range(len(targets))])
 
     def errors(half, fine_index):
         model = np.array([[line_curves[t][fine_index, group[k]] for t in range(len(targets))]
@@ -548,7 +553,7 @@ def explain_lines(vibration: dict, rows: list[dict], spectra: list, setup, times
     for a, axis in enumerate(AXES):
         measured = np.log10([rows[index[k]]["accel_rms_measured_m_s2"][a] for k in held])
         model = np.median([rms_curves[a][best, group[k]] for k in held])
-        tol = max(NOISE_Z * _summary(measured)["stderr"], np.log10(MIN_RMS_RATIO))
+        tol = _log_tolerance(measured, np.log10(MIN_RMS_RATIO))
         rms[axis] = {"held_out_model_m_s2": float(10 ** model),
                      "held_out_measured_m_s2": float(10 ** np.median(measured)),
                      "closed": bool(abs(model - np.median(measured)) <= tol)}
@@ -556,7 +561,7 @@ def explain_lines(vibration: dict, rows: list[dict], spectra: list, setup, times
                  "tolerance_db": float(10 * t), "closed": bool(c)}
                 for (o, a), e, t, c in zip(targets, held_error, tolerance, closed)]
     parameters = {"lug_count": count, TREAD_LUGS.main.name: float(fine[best])}
-    vibration.update(cause=None, parameters=parameters,
+    vibration.update(parameters=parameters,
                      intervals={TREAD_LUGS.main.name: [float(ok.min()), float(ok.max())]},
                      gain={"cause": TREAD_LUGS.name, "kind": TREAD_KIND, "lines": per_line,
                            "rms": rms, "surrogate": {"speeds_mps": speeds,
@@ -605,9 +610,11 @@ def _log_power(power: float) -> float:
     return float(np.log10(max(power, 1e-30))) if np.isfinite(power) else np.nan
 
 
-def _finite(values) -> np.ndarray:
-    v = np.asarray(values, float)
-    return v[np.isfinite(v)]
+def _log_tolerance(log_values, floor: float) -> float:
+    """The tolerance on a log10 feature: NOISE_Z robust standard errors of the finite
+    segments' median, never below floor (chi's rule, on a log scale)."""
+    v = np.asarray(log_values, float)
+    return max(NOISE_Z * (_summary(v[np.isfinite(v)])["stderr"] or 0.0), floor)
 
 
 def _straight_schedule(speed_mps: float, fs: float) -> ImuRun:
