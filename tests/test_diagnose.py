@@ -25,13 +25,16 @@ import pytest
 import skidsteer  # noqa: F401
 from skidsteer import diagnosis
 from skidsteer.diagnosis import causes
-from skidsteer.diagnosis.comparison import CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed
-from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset
+from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
+                                            simulate_group, wheel_rates_hz)
+from skidsteer.diagnosis.fit import REFINE_STEPS, _interval, refine_parameters
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.robot import load_model
+from skidsteer.simulation.run import settle
 from skidsteer.simulation.sensor_chain import SensorChain
 
 NAMED = ("mast_compliance", "loose_payload", "ground_roughness", "wheel_eccentricity",
@@ -181,6 +184,59 @@ def test_split_holds_out_the_middle_command():
     assert list(held) == [3, 4, 5] and list(train) == [0, 1, 2, 6, 7, 8]
 
 
+class _Surface:
+    """A stand-in for a cause's simulations (what refine_parameters sees through
+    _Evaluations): the training error is a known function of the parameters, and every
+    point asked for is kept."""
+
+    def __init__(self, error):
+        self.error, self.seen = error, []
+
+    def __call__(self, points):
+        self.seen += [p for p, _ in points]
+        return [self.error(p) for p, _ in points]
+
+
+def test_every_parameter_is_fitted_from_the_main_fit():
+    # issue 21: a frame softer in pitch than in roll; the main fit left the ratio and the
+    # damping at their priors' values (1 and 0.03, 0.17 and 0.22 of their priors' log
+    # ranges from the minimum at ratio 0.3, damping 0.05, stiffness 400): the search must
+    # get each within its fine step (0.1 of the prior's log range: a factor 2 for the
+    # 3-decade ratio, 1.26 for the others)
+    mast = causes.get("mast_compliance")
+    truth = {"stiffness_n_m_per_rad": 400.0, "pitch_stiffness_ratio": 0.3, "damping_ratio": 0.05}
+    parameters = [mast.main, *mast.held]
+
+    def error(values):
+        return 1.0 + 40 * sum((p.to_unit(values[p.name]) - p.to_unit(truth[p.name])) ** 2
+                              for p in parameters)
+
+    surface = _Surface(error)
+    refine_parameters(surface, parameters, mast.parameters(420.0), 0)
+    best = min(surface.seen, key=error)
+    for p in parameters:
+        assert abs(p.to_unit(best[p.name]) - p.to_unit(truth[p.name])) <= REFINE_STEPS[-1] + 1e-9, \
+            (p.name, best[p.name])
+    # bounded: the start, per pass 2 probes a parameter and a combined move, the profile
+    assert len(surface.seen) <= 1 + len(REFINE_STEPS) * (2 * 3 + 1) + 2 * 3
+
+
+def test_an_interval_open_on_one_side_reaches_the_prior():
+    p = causes.get("mast_compliance").held[1]  # pitch_stiffness_ratio, 0.1-100
+    # the error rises to the right only: the left side is not bounded by the data
+    lo, hi = _interval([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], 6, p)
+    assert lo == p.low and 1.0 < hi < 2.0
+
+
+def test_generated_truths_draw_the_held_parameters_from_their_priors():
+    mast = causes.get("mast_compliance")
+    _, values = truth_edit("mast_compliance", None, np.random.default_rng(1), held="prior")
+    assert all(p.low <= values[p.name] <= p.high for p in (mast.main, *mast.held))
+    assert any(values[p.name] != p.value for p in mast.held)
+    _, fixed = truth_edit("mast_compliance", None, np.random.default_rng(1))
+    assert all(fixed[p.name] == p.value for p in mast.held)
+
+
 # ------------------------------------------------------------------ verdict rules
 
 def _fit(name, held, score=None):
@@ -191,9 +247,17 @@ def _fit(name, held, score=None):
 def test_verdict_rules():
     z = diagnosis.Z_CONSISTENT
     assert diagnosis.verdict(z - 0.1, 1.0, [], noise=1.0)[0] == "no-discrepancy"
-    # the best candidate leaves too much
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)], noise=1.0)[0] \
-        == "unexplained"
+    # the best candidate removes most of a large discrepancy but leaves more than
+    # Z_EXPLAINED: named as the most likely cause, not failed by the absolute limit
+    # ((8^2 - 3.5^2) / (8^2 - 1) = 82 %)
+    result, named, reason = diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)],
+                                              noise=1.0)
+    assert result == "partly-explained" and named.cause == "a" and "82%" in reason
+    # ... unless it removes less than half: (8^2 - 6^2) / 63 = 44 %
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 6.0)], noise=1.0)[:2] == ("unexplained", None)
+    # ... or a rival removes about as much
+    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 3.5), _fit("b", 3.6)], noise=1.0)[:2] \
+        == ("unexplained", None)
     # consistent, but removing less than half of the discrepancy over the trial noise:
     # (2.5^2 - 2.1^2) / (2.5^2 - 1^2) = 35 %
     assert diagnosis.verdict(2.5, 2.5, [_fit("a", 2.1)], noise=1.0)[0] == "unexplained"
@@ -417,3 +481,19 @@ def test_compare_writes_its_result_last_and_leaves_no_marker(written, tmp_path):
     assert "stale" not in saved and saved["verdict"] == summary["verdict"] == "discrepancy"
     assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
     assert (out / "report.md").is_file() and not (out / INCOMPLETE_MARKER).exists()
+
+
+def test_wheel_orders_are_read_at_the_wheels_actual_rate():
+    # issue 21: the servos droop under the tires' torque (the issue measured ~9 % slower
+    # than commanded at 30 deg/s on concrete); the simulated side's wheel orders are read
+    # at the simulated wheels' steady rate, and the droop must show (between 3 % and
+    # 15 %: the issue's 9 % with room for the perturbed start; a rate at the command
+    # would mean the command was returned unchanged)
+
+    m = load_model()
+    settled = settle(m, mujoco.MjData(m), 2.0)
+    commanded = wheel_rates_hz(m, 0.0, 30.0)
+    time_s, accel, yaw, actual = simulate_group(m, settled, 0.0, 30.0, 8.0, SensorChain())
+    assert len(commanded) == len(actual) == 1
+    droop = 1 - actual[0] / commanded[0]
+    assert 0.03 < droop < 0.15, droop

@@ -63,10 +63,11 @@ def test_entries_come_back_exactly_and_bad_ones_are_misses(tmp_path):
     cache = SimulationCache(tmp_path / "c")
     features = np.array([1 / 3, np.nan, 1e-300, -0.0])
     assert cache.get("k") is None
-    cache.put("k", features, 12.345678901234567)
-    got, yaw = cache.get("k")
+    cache.put("k", features, 12.345678901234567, (0.1, 1 / 7))
+    got, yaw, rates = cache.get("k")
     np.testing.assert_array_equal(got, features)  # NaN in place, bits equal
     assert got.tobytes() == features.tobytes() and yaw == 12.345678901234567
+    assert rates == (0.1, 1 / 7)
     assert (cache.stores, cache.hits) == (1, 1)
     (tmp_path / "c" / "bad.npz").write_bytes(b"not an npz")
     assert cache.get("bad") is None

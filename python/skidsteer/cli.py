@@ -318,7 +318,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if result is None:
         return code
     g = result["gain"]
-    _print_verdict(result)
+    likely = result["most_likely"]
+    _print_verdict(result, *([f"  most likely: {likely['cause']} ({likely['removed']:.0%} of "
+                              "the discrepancy removed; not named)"]
+                             if likely and not likely["named"] else []),
+                   *([f"  best pair: {' + '.join(result['best_pair']['causes'])} (held-out "
+                      f"{result['best_pair']['held_out_error']:.2f})"]
+                     if result["best_pair"] and result["best_pair"]["better_than_best"] else []))
     print(f"gain on held-out runs: error {g['baseline_error']:.2f} -> {g['extended_error']:.2f}"
           f" (trial noise {g['noise_error']:.2f}; {g['relative_reduction']:.0%} of the "
           f"discrepancy removed, {g['extended_cause'] or 'no cause'})")

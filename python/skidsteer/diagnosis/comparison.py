@@ -18,8 +18,9 @@ import mujoco
 import numpy as np
 
 from skidsteer.data.dataset import Dataset, Group, group_runs
-from skidsteer.features.extract import N_POWER, comparison_feature_names, comparison_features
-from skidsteer.robot import Setup, load_model
+from skidsteer.features.extract import (N_POWER, STEADY_FROM_S, comparison_feature_names,
+                                        comparison_features)
+from skidsteer.robot import Setup, load_model, roles
 from skidsteer.simulation.backends import LocalBackend
 from skidsteer.simulation.cache import model_digest
 from skidsteer.simulation.drive import DriveGeometry
@@ -38,12 +39,32 @@ SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds
 
 
 def wheel_rates_hz(m: mujoco.MjModel, v_mps: float, omega_deg_s: float) -> tuple[float, ...]:
-    """The wheels' rotation rates (Hz, > 0) under the command (v_x*, omega_z*): the
-    servos hold the commanded wheel speeds (Sec. 6.1's feed-forward), whatever the
-    tires' slip.  One rate per side, merged when the sides turn equally fast."""
+    """The wheels' rotation rates (Hz, > 0) the command (v_x*, omega_z*) asks for
+    (Sec. 6.1's feed-forward).  One rate per side, merged when the sides turn equally
+    fast.  The servos droop under the tires' torque (~9 % slower at 30 deg/s on
+    concrete): actual_wheel_rates_hz reads the simulated wheels instead."""
     speeds = np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
     rates = sorted({round(float(w) / (2 * np.pi), 12) for w in speeds if w > 0})
     return tuple(rates)
+
+
+def actual_wheel_rates_hz(m: mujoco.MjModel, run, v_mps: float, omega_deg_s: float
+                          ) -> tuple[float, ...]:
+    """The wheels' rotation rates (Hz) over a simulated run's steady window (from
+    STEADY_FROM_S), as the wheel-order features need them: one per side where the
+    command turns the sides at different rates (wheel_rates_hz), else one for all."""
+    commanded = wheel_rates_hz(m, v_mps, omega_deg_s)
+    steady = np.abs(run.wheel_speed[run.time_s - run.time_s[0] >= STEADY_FROM_S])
+    if not commanded or not len(steady):
+        return commanded
+    left = roles.roles_of(m).wheel_position_m[:, 1] > 0
+    sides = np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
+    turning = [(w, wheels) for w, wheels in zip(sides, (left, ~left)) if w > 0]
+    if len(commanded) == 1:  # the turning sides at one commanded rate: one line per order
+        return (float(np.mean([steady[:, wheels].mean() for _, wheels in turning]))
+                / (2 * np.pi),)
+    return tuple(float(steady[:, wheels].mean()) / (2 * np.pi)
+                 for _, wheels in sorted(turning, key=lambda t: t[0]))
 
 
 # --------------------------------------------------------------------- measured
@@ -89,6 +110,14 @@ class Observed:
         index = {g: i for i, g in enumerate(groups)}
         return cls(groups, np.array([index[i.group] for i in infos]), files, np.array(feats),
                    min(durations), skipped, records)
+
+    def with_wheel_rates(self, rates: Sequence[Sequence[float]]) -> "Observed":
+        """The same runs with their wheel-order features read at other wheel rates (one
+        entry per group; e.g. the base simulation's actual rates, for records without
+        wheel speeds: the command corrected by the simulated servos' droop)."""
+        features = np.array([comparison_features(t, a, rates[gi]) for (t, a), gi
+                             in zip(self.records, self.run_group)])
+        return dataclasses.replace(self, features=features)
 
     def noise_floor(self) -> np.ndarray:
         """Per band power, the quietest run's: the sensor chain's floor wherever at least
@@ -136,6 +165,8 @@ class Simulated:
     accel: list[np.ndarray]
     mean_yaw_rate_deg_s: list[float]
     features: np.ndarray  # (n_groups, n_features)
+    # per group, the wheels' rates over the steady window (actual_wheel_rates_hz)
+    wheel_rates_hz: list[tuple[float, ...]] = dataclasses.field(default_factory=list)
 
 
 ModelFactory = Callable[[Setup], mujoco.MjModel]
@@ -156,7 +187,7 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
     """
     backend = backend or LocalBackend(nthread)
     results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
-                         np.zeros((len(g), N_POWER + 1))) for _, g in jobs]
+                         np.zeros((len(g), N_POWER + 1)), [()] * len(g)) for _, g in jobs]
     shared: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, settled state)
     built: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, its digest)
     tasks, where, keys = [], [], []
@@ -173,7 +204,8 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
                                       chain)
                 stored = None if signals else cache.get(entry_key)
                 if stored is not None:
-                    results[j].features[k], results[j].mean_yaw_rate_deg_s[k] = stored
+                    (results[j].features[k], results[j].mean_yaw_rate_deg_s[k],
+                     results[j].wheel_rates_hz[k]) = stored
                     if progress:
                         progress(1)
                     continue
@@ -187,9 +219,9 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
             where, keys, backend.map(simulate_group, tasks)):
         r = results[j]
         r.time_s[k], r.accel[k], r.mean_yaw_rate_deg_s[k] = time_s, accel, yaw
-        r.features[k] = comparison_features(time_s, accel, rates)
+        r.features[k], r.wheel_rates_hz[k] = comparison_features(time_s, accel, rates), rates
         if cache is not None:
-            cache.put(entry_key, r.features[k], yaw)
+            cache.put(entry_key, r.features[k], yaw, rates)
         if progress:
             progress(1)
     return results
@@ -201,7 +233,8 @@ def simulate_group(m: mujoco.MjModel, settled: np.ndarray, v_mps: float, omega_d
     mean yaw rate in deg/s, the wheels' rotation rates in Hz).  A backend task."""
     run = run_from_settled(m, settled, v_mps, omega_deg_s, duration_s)
     time_s, accel = chain.log(run)
-    return time_s, accel, run.mean_yaw_rate_deg_s(), wheel_rates_hz(m, v_mps, omega_deg_s)
+    return (time_s, accel, run.mean_yaw_rate_deg_s(),
+            actual_wheel_rates_hz(m, run, v_mps, omega_deg_s))
 
 
 # ------------------------------------------------------------------ comparison

@@ -61,11 +61,16 @@ EFFECTS = (None, *causes.CAUSES, *OUTSIDE_EFFECTS)
 
 
 def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.random.Generator,
-               draw: str = "clear") -> tuple[Callable | None, dict[str, float]]:
+               draw: str = "clear", held: str = "value"
+               ) -> tuple[Callable | None, dict[str, float]]:
     """(edit, parameters) of an effect; unless given, a cause's main parameter is drawn
     from its prior (draw="prior") or from the part of it clear of the base model
     (draw="clear", Cause.strong_draw): an effect inside the trials' noise cannot be
-    named by any method, and the no-effect dataset already tests that verdict."""
+    named by any method, and the no-effect dataset already tests that verdict.  Its
+    other parameters, unless given, sit at their priors' values (held="value") or are
+    drawn from their priors (held="prior": a truth not shaped like the prior's middle)."""
+    if held not in ("value", "prior"):
+        raise ValueError(f"held must be 'value' or 'prior', got {held!r}")
     if effect is None:
         return None, {}
     realisation = int(rng.integers(2**31))
@@ -80,6 +85,8 @@ def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.r
             if draw not in ("clear", "prior"):
                 raise ValueError(f"draw must be 'clear' or 'prior', got {draw!r}")
             main = cause.strong_draw(rng) if draw == "clear" else cause.main.draw(rng)
+        if held == "prior":
+            values = {p.name: p.draw(rng) for p in cause.held} | values
         values = cause.parameters(main, values)
         apply = cause.apply
     return (lambda spec: apply(spec, values, realisation)), values
@@ -91,7 +98,8 @@ def make_dataset(out_dir, effect: str | None = None, params: Mapping[str, float]
                  setup: Setup = Setup(build="extended", floor="concrete"),
                  chain: SensorChain = SensorChain(),
                  file_format: str = "xlsx", nthread: int = 2, truth_path=None,
-                 timestep: float | None = None, draw: str = "clear") -> dict:
+                 timestep: float | None = None, draw: str = "clear", held: str = "value"
+                 ) -> dict:
     """Writes a dataset directory (run files + runs.csv) of the setup's robot with the
     effect; returns the truth."""
     if effect not in EFFECTS:
@@ -101,7 +109,7 @@ def make_dataset(out_dir, effect: str | None = None, params: Mapping[str, float]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
-    edit, values = truth_edit(effect, params, rng, draw)
+    edit, values = truth_edit(effect, params, rng, draw, held)
     offsets = chain.draw_offsets(rng)
     setup = resolve(setup)
     m = model_factory(edit=edit, timestep=timestep)(setup)

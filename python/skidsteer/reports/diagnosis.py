@@ -122,7 +122,6 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
     observed = _observed(dataset_dir, model)
     if out_dir is not None:
         begin_outputs(Path(out_dir), "comparison.json", "compare")
-    comparison = Comparison(observed)
     bar = _Progress(len(observed.groups), progress, "compare")
     try:
         base = simulate_groups([(model_factory(timestep=timestep), observed.groups)],
@@ -130,6 +129,8 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
                                backend=backend)[0]
     finally:
         bar.close()
+    observed = observed.with_wheel_rates(base.wheel_rates_hz)  # as diagnose_observed does
+    comparison = Comparison(observed)
     all_runs = np.arange(len(observed.run_group))
     error = comparison.error(base.features, all_runs)
     summary = {
@@ -377,13 +378,24 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         + (f", cause **{diagnosis['cause']}**" if diagnosis["cause"] else ""), "",
         diagnosis["reason"] + ".", ""]
     if named is not None:
-        lo, hi = named.interval
-        lines += [f"Fitted {named.main} = **{_fmt(named.parameters[named.main], 4)}** "
-                  f"(interval {_fmt(lo)} to {_fmt(hi)}); held at their priors: "
-                  + ", ".join(f"{k} = {_fmt(v)}" for k, v in named.parameters.items()
-                              if k != named.main) + ".", "",
+        fitted = [f"{k} = **{_fmt(named.parameters[k], 4)}** (interval {_fmt(lo)} to "
+                  f"{_fmt(hi)})" for k, (lo, hi) in named.intervals.items()]
+        held = [f"{k} = {_fmt(v)}" for k, v in named.parameters.items()
+                if k not in named.intervals]
+        lines += ["Fitted: " + "; ".join(fitted)
+                  + (f"; held at their priors: {', '.join(held)}" if held else "") + ".", "",
                   f"Extended model: [{diagnosis['extended_model']}]({diagnosis['extended_model']})"
                   f" (`skidsteer view {out / diagnosis['extended_model']}`).", ""]
+    likely, pair = diagnosis["most_likely"], diagnosis["best_pair"]
+    if likely is not None and named is None:
+        lines += [f"Most likely, though not named: {likely['cause']} (removes "
+                  f"{likely['removed']:.0%} of the held-out discrepancy, error "
+                  f"{_fmt(likely['held_out_error'])}).", ""]
+    if pair is not None:
+        lines += [f"The best pair, {' + '.join(pair['causes'])}, each at its own fit: held-out "
+                  f"error {_fmt(pair['held_out_error'])}, score {_fmt(pair['score'])} "
+                  f"({'better' if pair['better_than_best'] else 'no better'} than the best "
+                  "cause alone).", ""]
     lines += [
         "## Gain on held-out runs", "",
         table(["metric", "base model", f"extended ({g['extended_cause'] or '-'})",
@@ -394,17 +406,20 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         f"Base error over all runs: {diagnosis['baseline_error_all_runs']:.2f}.", "",
         "## Candidates, best first", "",
         table(["cause", "held-out error", "training error", "score (E^2 + penalty)",
-                "fitted main parameter", "interval"],
+                "removed", "fitted parameters (interval)"],
                [[f["cause"], _fmt(f["held_out_error"]), _fmt(f["train_error"]), _fmt(f["score"]),
-                 " ".join(f"{k} = {_fmt(v)}" for k, v in f["parameters"].items()
-                          if k in f["interval"]),
-                 " ".join(f"{_fmt(a)}-{_fmt(b)}" for a, b in f["interval"].values())]
+                 f"{f['removed']:.0%}",
+                 "; ".join(f"{k} = {_fmt(f['parameters'][k])} ({_fmt(a)}-{_fmt(b)})"
+                           for k, (a, b) in f["interval"].items())]
                 for f in diagnosis["ranking"]]) if diagnosis["ranking"] else "(none fitted)", "",
         "## What the base model gets wrong (trial-mean z > 3)", "",
         _discrepancy_table(diagnosis["discrepancies"]), ""]
     if diagnosis.get("remaining_discrepancies") is not None:
         lines += [f"Left after {named.cause}:", "",
                   _discrepancy_table(diagnosis["remaining_discrepancies"]), ""]
+    elif likely is not None:
+        lines += [f"Left after the most likely cause, {likely['cause']}:", "",
+                  _discrepancy_table(likely["left"]), ""]
     lines += ["## Per command (! marks |z| > 3)", "", group_markdown(rows, list(shown)), ""]
     if figures:
         plot_spectra(observed, shown, out / "figures" / "spectra.png")

@@ -111,25 +111,29 @@ class SimulationCache:
     def _path(self, key: str) -> Path:
         return self.root / f"{key}.npz"
 
-    def get(self, key: str) -> tuple[np.ndarray, float] | None:
-        """(features, mean yaw rate in deg/s), or None when not stored (or unreadable:
-        an entry is only ever whole, but a damaged disk is a miss, not an error)."""
+    def get(self, key: str) -> tuple[np.ndarray, float, tuple[float, ...]] | None:
+        """(features, mean yaw rate in deg/s, the wheels' rates in Hz), or None when not
+        stored (or unreadable: an entry is only ever whole, but a damaged disk is a
+        miss, not an error)."""
         path = self._path(key)
         if not path.is_file():
             return None
         try:
             with np.load(path) as entry:
                 features, yaw = np.array(entry["features"]), float(entry["yaw_deg_s"])
+                rates = tuple(float(r) for r in entry["wheel_rates_hz"])
         except (OSError, ValueError, KeyError):
             return None
         with self._lock:
             self.hits += 1
-        return features, yaw
+        return features, yaw, rates
 
-    def put(self, key: str, features: np.ndarray, yaw_deg_s: float) -> None:
+    def put(self, key: str, features: np.ndarray, yaw_deg_s: float,
+            wheel_rates_hz=()) -> None:
         def write(tmp: Path) -> None:
             with open(tmp, "wb") as f:
-                np.savez(f, features=np.asarray(features, float), yaw_deg_s=float(yaw_deg_s))
+                np.savez(f, features=np.asarray(features, float), yaw_deg_s=float(yaw_deg_s),
+                         wheel_rates_hz=np.asarray(wheel_rates_hz, float))
 
         write_atomically(self._path(key), write)
         with self._lock:

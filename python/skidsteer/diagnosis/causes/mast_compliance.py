@@ -19,11 +19,13 @@ STIFFNESS = Parameter(
            "rocking mode at 2.1-11.8 Hz, the band where Sec. 3.2 sees the frame's vibrations; "
            "value: the geometric middle")
 PITCH_STIFFNESS_RATIO = Parameter(
-    "pitch_stiffness_ratio", 1.0, 100.0, 1.0, log=True,
+    "pitch_stiffness_ratio", 0.1, 100.0, 1.0, log=True,
     source="assumed: the foot's pitch stiffness over its roll stiffness; the frame's fore-aft "
-           "and lateral bolt spans are not documented, so from isotropic (1, the value held) to "
-           "a foot 100x stiffer in pitch; Table 5.2's pitch free response (3.05 Hz, the whole "
-           "robot rocking on its tires) is what decides it (docs/reproduction/mechanisms.md)")
+           "and lateral bolt spans are not documented, so either may be the longer: from a "
+           "foot 10x softer in pitch through isotropic (1, the prior's value) to 100x stiffer "
+           "in pitch; Table 5.2's pitch free response (3.05 Hz, the whole robot rocking on its "
+           "tires) favours the stiffer side (docs/reproduction/mechanisms.md), the diagnosis "
+           "fits it")
 DAMPING_RATIO = Parameter(
     "damping_ratio", 0.01, 0.1, 0.03, log=True,
     source="assumed: bolted aluminium joints, 1-5 % of critical (structural damping)")

@@ -1,0 +1,179 @@
+"""Benchmark: does `diagnose` name the right cause on datasets nobody tuned it on (issue 21)?
+
+Each dataset is drawn with a fresh seed: the effect (every candidate cause in turn,
+a null dataset and an effect outside the candidates), the floor, three swivel
+commands, the cause's main parameter clear of the base model (Cause.strong_draw)
+and its other parameters from their priors (synth.make_dataset(held="prior")),
+3 trials per command.  The issue's two fixed cases come first:
+
+- ``roughness_on_tile``: ground_roughness, 0.35 mm RMS, 5 cm correlation, on tile
+  at 15/35/55 deg/s;
+- ``anisotropic_frame_on_carpet``: mast_compliance, 400 N m/rad in roll, pitch 0.5x
+  as stiff (outside the old prior, which only allowed a stiffer pitch), on carpet.
+
+An outcome per dataset:
+- null: right if ``no-discrepancy``; outside effect: right if ``unexplained``;
+- a cause: ``inside noise`` when the base model's error is already within
+  Z_CONSISTENT (no method can name it; not counted), else right when the named
+  cause (verdict explained or partly-explained) is the hidden one, wrong when it is
+  another, missed when nothing is named.
+
+Every finished dataset is appended to ``--out``/results.jsonl at once, so a long
+run can be read while it goes on and, rerun with the same arguments, resumes.
+The datasets and a shared simulation cache live under ``--out`` (regenerated, not
+committed).  A long run, not CI: CI keeps the fixed hidden-effect subset of
+tests/test_diagnose.py.
+
+    python scripts/bench/bench_diagnose_generalisation.py --datasets 40 --out /tmp/gen
+    python scripts/bench/bench_diagnose_generalisation.py --out /tmp/gen --report
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import skidsteer  # noqa: E402,F401
+from _machine import machine  # noqa: E402
+from skidsteer.diagnosis import Z_CONSISTENT, causes  # noqa: E402
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
+from skidsteer.reports.diagnosis import diagnose  # noqa: E402
+from skidsteer.reports.markdown import table  # noqa: E402
+from skidsteer.robot import Setup  # noqa: E402
+
+FLOORS = ("concrete", "tile", "carpet")  # the plugin's floors (Sec. 3.3 and assumed)
+OMEGAS_DEG_S = np.arange(10.0, 65.0, 5.0)  # Sec. 3.2's swivels span 4-64 deg/s
+FIXED = {
+    "roughness_on_tile": dict(effect="ground_roughness", seed=2101, floor="tile",
+                              omegas=(15.0, 35.0, 55.0),
+                              params={"height_rms_m": 3.5e-4, "correlation_length_m": 0.05}),
+    "anisotropic_frame_on_carpet": dict(
+        effect="mast_compliance", seed=2102, floor="carpet", omegas=(15.0, 30.0, 60.0),
+        params={"stiffness_n_m_per_rad": 400.0, "pitch_stiffness_ratio": 0.5,
+                "damping_ratio": 0.03}),
+}
+NAMING = ("explained", "partly-explained")  # verdicts that name a cause
+
+
+def plan(n_datasets: int, first_seed: int) -> list[dict]:
+    """The fixed cases, then n_datasets drawn ones: the effects in turn (causes, null,
+    outside), floor and commands drawn from the seed."""
+    cases = [{"case": name, **spec, "params": spec["params"]} for name, spec in FIXED.items()]
+    effects = [*sorted(causes.CAUSES), None, *sorted(OUTSIDE_EFFECTS)]
+    for i in range(n_datasets):
+        seed = first_seed + i
+        rng = np.random.default_rng(seed)
+        cases.append({"case": f"draw-{seed}", "effect": effects[i % len(effects)], "seed": seed,
+                      "floor": str(rng.choice(FLOORS)),
+                      "omegas": tuple(float(w) for w in np.sort(rng.choice(OMEGAS_DEG_S, 3,
+                                                                           replace=False))),
+                      "params": None})
+    return cases
+
+
+def outcome(effect: str | None, result: dict) -> str:
+    named = result["cause"] if result["verdict"] in NAMING else None
+    if effect is None:
+        return "right" if result["verdict"] == "no-discrepancy" else "wrong"
+    if effect in OUTSIDE_EFFECTS:
+        return "right" if result["verdict"] == "unexplained" else "wrong"
+    if result["baseline_error_all_runs"] <= Z_CONSISTENT:
+        return "inside noise"
+    if named is None:
+        return "missed"
+    return "right" if named == effect else "wrong"
+
+
+def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
+    data = out / "datasets" / case["case"]
+    started = time.perf_counter()
+    truth = make_dataset(data, case["effect"], case["params"], seed=case["seed"],
+                         omegas=case["omegas"], trials=trials, duration_s=duration_s,
+                         setup=Setup(build="extended", floor=case["floor"]), nthread=threads,
+                         held="prior")
+    generated_s = time.perf_counter() - started
+    result = diagnose(data, None, nthread=threads, progress=True,
+                      cache_dir=out / "simulations")
+    best = result["ranking"][0] if result["ranking"] else {}
+    return {**{k: v for k, v in case.items() if k != "params"},
+            "truth": truth["parameters"], "verdict": result["verdict"],
+            "cause": result["cause"], "reason": result["reason"],
+            "parameters": result["parameters"],
+            "best": best.get("cause"), "best_held_out_error": best.get("held_out_error"),
+            "baseline_error": result["baseline_error_all_runs"],
+            "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
+            "removed": result["gain"]["relative_reduction"],
+            "outcome": outcome(case["effect"], result),
+            "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"]}
+
+
+def report(rows: list[dict]) -> str:
+    counts = {k: sum(r["outcome"] == k for r in rows)
+              for k in ("right", "wrong", "missed", "inside noise")}
+    effects = [r for r in rows if r["effect"] in causes.CAUSES and r["outcome"] != "inside noise"]
+    right = sum(r["outcome"] == "right" for r in effects)
+    lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
+                    "held-out error", "outcome", "s"],
+                   [[r["case"], r["effect"] or "(none)", r["floor"],
+                     "/".join(f"{w:g}" for w in r["omegas"]), r["verdict"], r["cause"] or "-",
+                     f"{r['removed']:.0%}",
+                     f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", r["outcome"],
+                     f"{r['diagnose_s']:.0f}"] for r in rows]), "",
+             f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
+             f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
+             f"causes clear of the noise named right in {right} of {len(effects)}"
+             + (f" ({right / len(effects):.0%})" if effects else "") + ".",
+             f"Machine: {machine()}."]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--datasets", type=int, default=40, help="drawn datasets (besides the "
+                    "fixed cases)")
+    ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--trials", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=20.0, help="record length, s")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--report", action="store_true", help="print the table of the results "
+                    "so far and stop")
+    ap.add_argument("--markdown", type=Path, help="also write the table to this file (the "
+                    "README's docs/diagnose-generalisation.md)")
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    results = args.out / "results.jsonl"
+    done = ({r["case"]: r for r in map(json.loads, results.read_text().splitlines())}
+            if results.exists() else {})
+    if not args.report:
+        for case in plan(args.datasets, args.first_seed):
+            if case["case"] in done or (args.only and case["case"] not in args.only):
+                continue
+            row = run_case(case, args.out, args.trials, args.duration, args.threads)
+            done[row["case"]] = row
+            with open(results, "a") as f:
+                f.write(json.dumps(row) + "\n")
+            print(f"{row['case']}: {row['effect']} -> {row['verdict']} {row['cause'] or ''} "
+                  f"({row['outcome']}, {row['diagnose_s']:.0f} s)", flush=True)
+    text = report(list(done.values()))
+    print(text)
+    if args.markdown:
+        args.markdown.write_text(
+            "# diagnose on fresh draws (issue 21)\n\nGenerated by `python "
+            "scripts/bench/bench_diagnose_generalisation.py "
+            f"--datasets {args.datasets} --first-seed {args.first_seed} --trials {args.trials} "
+            f"--duration {args.duration:g} --out DIR --markdown {args.markdown}`; what each "
+            "column means is in the script's docstring.\n\n" + text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
