@@ -23,9 +23,10 @@ if [[ "${CI:-}" == "true" || "${SKIDSTEER_SANITIZE_TESTS:-}" == "1" ]]; then
 fi
 status=0
 # Two pytest workers, one test module per worker (--dist loadscope: a module's shared
-# fixtures, e.g. test_diagnose.py's hidden-effect diagnoses, are computed once), so
-# the single-threaded tests of the other modules run beside the diagnoses (CI's
-# 30-min budget).  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
+# fixtures, e.g. the hidden-effect diagnoses of test_diagnose.py and
+# test_diagnose_hidden.py, are computed once; the two modules share one simulation
+# cache), so the single-threaded tests of the other modules run beside the diagnoses
+# (CI's 30-min budget).  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
 workers=${SKIDSTEER_TEST_WORKERS:-2}
 parallel=()
 if [[ "$workers" -gt 0 ]]; then

@@ -1,0 +1,77 @@
+"""The hidden-effect diagnoses that tests/test_diagnose.py and
+tests/test_diagnose_hidden.py check: a "measured" dataset from a truth model (our
+model plus one effect, seeded) through the sensor chain into LabVIEW xlsx files,
+diagnosed with every candidate.
+
+The two modules split the effects so that pytest's two workers (scripts/test.sh,
+--dist loadscope: one module per worker) share the diagnoses, the slow part of the
+suite; every diagnosis of a test session reads and writes one simulation cache
+(shared_cache_dir), also across the workers: the candidates' grids are the same
+models whatever the data, and a stored simulation gives the numbers a new one would
+(the kill-and-resume test checks that a resumed diagnosis equals an uninterrupted
+one; entries are written atomically, so two workers may store one at once).
+"""
+
+from __future__ import annotations
+
+import os
+
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.synth import make_dataset
+from skidsteer.reports.diagnosis import diagnose
+
+SEED = 3
+DURATION_S = 8.0
+# A once-per-revolution effect shows only in records that hold a revolution of the
+# slowest command's wheels in the steady window: 14.3 s at 15 deg/s, after the 4 s
+# start; the thesis's records are 20 s (Sec. 3.2).  The other effects show in 8 s.
+RECORD_S = {"wheel_eccentricity": 20.0}
+# the slowest hidden-effect diagnoses (20 s records; the frame's three parameters),
+# in tests/test_diagnose_hidden.py; the others in tests/test_diagnose.py
+SLOW = ("wheel_eccentricity", "mast_compliance")
+
+
+def shared_cache_dir(tmp_path_factory):
+    """One simulation cache for the session: under the workers' common base directory
+    when pytest-xdist runs the tests, else under the session's own."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent
+    return base / "diagnose-simulations"
+
+
+def hidden_diagnoses(tmp_path_factory):
+    """effect -> (truth, diagnosis, root), each computed once per module."""
+    cache = {}
+    shared = shared_cache_dir(tmp_path_factory)
+
+    def run(effect, out=False):
+        if effect not in cache:
+            root = tmp_path_factory.mktemp(f"hidden-{effect}")
+            truth = make_dataset(root / "data", effect, seed=SEED,
+                                 duration_s=RECORD_S.get(effect, DURATION_S))
+            result = diagnose(root / "data", root / "out" if out else None,
+                              progress=False, figures=out, cache_dir=shared)
+            cache[effect] = (truth, result, root)
+        return cache[effect]
+
+    return run
+
+
+def check_named(truth, result, effect):
+    """The hidden cause named, its main parameter within its recovery factor, at least
+    half of the held-out discrepancy removed."""
+    assert result["verdict"] == "explained", result["reason"]
+    assert result["cause"] == effect
+    main = truth["main_parameter"]
+    fitted, hidden_value = result["parameters"][main], truth["parameters"][main]
+    factor = causes.get(effect).recovery_factor
+    assert hidden_value / factor <= fitted <= hidden_value * factor, (fitted, hidden_value)
+    assert result["gain"]["relative_reduction"] >= 0.5
+
+
+def check_not_wrong(result, effect):
+    """Where it cannot tell, it says unexplained rather than guess."""
+    assert result["cause"] in (effect, None), result["reason"]
+    if result["cause"] is None:
+        assert result["verdict"] == "unexplained"
