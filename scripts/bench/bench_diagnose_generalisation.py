@@ -114,18 +114,27 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"]}
 
 
+def _recovery(row: dict) -> str:
+    """The named cause's main parameter, fitted over hidden, where the name is right."""
+    if row["outcome"] != "right" or row["effect"] not in causes.CAUSES:
+        return "-"
+    main = causes.get(row["effect"]).main.name
+    return (f"{row['parameters'][main]:.3g} / {row['truth'][main]:.3g} "
+            f"({row['parameters'][main] / row['truth'][main]:.2f}x)")
+
+
 def report(rows: list[dict]) -> str:
     counts = {k: sum(r["outcome"] == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
     effects = [r for r in rows if r["effect"] in causes.CAUSES and r["outcome"] != "inside noise"]
     right = sum(r["outcome"] == "right" for r in effects)
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
-                    "held-out error", "outcome", "s"],
+                    "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
                    [[r["case"], r["effect"] or "(none)", r["floor"],
                      "/".join(f"{w:g}" for w in r["omegas"]), r["verdict"], r["cause"] or "-",
                      f"{r['removed']:.0%}",
-                     f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", r["outcome"],
-                     f"{r['diagnose_s']:.0f}"] for r in rows]), "",
+                     f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", _recovery(r),
+                     r["outcome"], f"{r['diagnose_s']:.0f}"] for r in rows]).rstrip(), "",
              f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
              f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
              f"causes clear of the noise named right in {right} of {len(effects)}"
