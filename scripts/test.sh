@@ -26,11 +26,14 @@ status=0
 # fixtures, e.g. the hidden-effect diagnoses of test_diagnose.py and
 # test_diagnose_hidden.py, are computed once; the two modules share one simulation
 # cache), so the single-threaded tests of the other modules run beside the diagnoses
-# (CI's 30-min budget).  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
+# (CI's 30-min budget).  The modules go out in file order (--no-loadscope-reorder):
+# xdist's default sends the modules with most tests first, which queued
+# test_diagnose_hidden.py (4 tests, ~9 min) behind everything else on one worker
+# while the other idled.  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
 workers=${SKIDSTEER_TEST_WORKERS:-2}
 parallel=()
 if [[ "$workers" -gt 0 ]]; then
-  parallel=(-n "$workers" --dist loadscope)
+  parallel=(-n "$workers" --dist loadscope --no-loadscope-reorder)
 fi
 "${SKIDSTEER_VENV:-.venv}/bin/python" -m pytest "${parallel[@]}" "$@" || status=$?
 if [[ $sanitize -eq 1 ]]; then
