@@ -65,7 +65,7 @@ NAMING = ("explained", "partly-explained")  # verdicts that name a cause
 def plan(n_datasets: int, first_seed: int) -> list[dict]:
     """The fixed cases, then n_datasets drawn ones: the effects in turn (causes, null,
     outside), floor and commands drawn from the seed."""
-    cases = [{"case": name, **spec, "params": spec["params"]} for name, spec in FIXED.items()]
+    cases = [{"case": name, **spec} for name, spec in FIXED.items()]
     effects = [*sorted(causes.CAUSES), None, *sorted(OUTSIDE_EFFECTS)]
     for i in range(n_datasets):
         seed = first_seed + i
