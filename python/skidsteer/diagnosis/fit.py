@@ -150,9 +150,30 @@ def _parameter_key(params: dict[str, float]) -> tuple:
     return tuple(sorted((k, float(v)) for k, v in params.items()))
 
 
+def _placed(part: Simulated, which: list[int], into: Simulated | int) -> Simulated:
+    """part, a simulation of the groups `which` (in that order), laid into a simulation of
+    every group: `into`'s copy, or with n_groups = into, empty rows (NaN features)."""
+    if isinstance(into, int):
+        into = Simulated([None] * into, [None] * into, [np.nan] * into,
+                         np.full((into, part.features.shape[1]), np.nan), [()] * into)
+    out = Simulated(list(into.time_s), list(into.accel), list(into.mean_yaw_rate_deg_s),
+                    into.features.copy(), list(into.wheel_rates_hz))
+    for row, i in enumerate(which):
+        out.time_s[i], out.accel[i] = part.time_s[row], part.accel[row]
+        out.mean_yaw_rate_deg_s[i] = part.mean_yaw_rate_deg_s[row]
+        out.features[i], out.wheel_rates_hz[i] = part.features[row], part.wheel_rates_hz[row]
+    return out
+
+
 class _Evaluations:
     """Training errors of one cause's models, simulated in batches and kept: a point is
-    (its parameters, its realisation)."""
+    (its parameters, its realisation).
+
+    A point simulates the commands its training error reads (the groups holding
+    training runs) only; the held-out commands are simulated for the points a fit
+    ends at (complete), a third of a search's simulations saved when every third
+    command is held out.  Each command is simulated on its own from the settled
+    state, so the numbers are those of simulating every command at every point."""
 
     def __init__(self, cause, comparison, groups, duration_s, train, timestep, chain, backend,
                  progress, stored):
@@ -160,21 +181,38 @@ class _Evaluations:
         self.duration_s, self.timestep, self.chain = duration_s, timestep, chain
         self.backend, self.progress, self.stored = backend, progress, stored
         self.done: dict[tuple, tuple[float, Simulated]] = {}
+        self.trained = sorted({int(g) for g in comparison.observed.run_group[train]})
+        self.completed: set[tuple] = set()  # the points simulated on every command
 
     def factory(self, params: dict[str, float], realisation: int):
         return model_factory(self.cause.edit(params, realisation), self.timestep)
+
+    def _simulate(self, keys: list[tuple], which: list[int]) -> list[Simulated]:
+        jobs = [(self.factory(dict(k), r), [self.groups[i] for i in which]) for k, r in keys]
+        return simulate_groups(jobs, self.duration_s, self.chain, backend=self.backend,
+                               progress=self.progress, cache=self.stored, signals=False)
 
     def __call__(self, points: list[tuple[dict[str, float], int]]) -> list[float]:
         keys = [(_parameter_key(p), int(r)) for p, r in points]
         todo = list(dict.fromkeys(k for k in keys if k not in self.done))
         if todo:
-            jobs = [(self.factory(dict(k), r), self.groups) for k, r in todo]
-            for key, sim in zip(todo, simulate_groups(jobs, self.duration_s, self.chain,
-                                                      backend=self.backend,
-                                                      progress=self.progress,
-                                                      cache=self.stored, signals=False)):
+            for key, part in zip(todo, self._simulate(todo, self.trained)):
+                sim = _placed(part, self.trained, len(self.groups))
                 self.done[key] = (self.comparison.error(sim.features, self.train), sim)
         return [self.done[k][0] for k in keys]
+
+    def complete(self, params: dict[str, float], realisation: int) -> Simulated:
+        """The point's simulation with every command (the held-out ones added)."""
+        key = (_parameter_key(params), int(realisation))
+        self([(params, realisation)])
+        error, sim = self.done[key]
+        if key not in self.completed:
+            missing = [i for i in range(len(self.groups)) if i not in self.trained]
+            if missing:
+                sim = _placed(self._simulate([key], missing)[0], missing, sim)
+                self.done[key] = (error, sim)
+            self.completed.add(key)
+        return sim
 
     def best(self, realisation: int) -> tuple[dict[str, float], float, Simulated]:
         key = min((k for k in self.done if k[1] == realisation), key=lambda k: self.done[k][0])
@@ -252,7 +290,8 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     """The Fit at the best point evaluated: its errors, the score with one penalty per
     fitted parameter, and every fitted parameter's interval."""
     train = evaluate.train
-    params, train_error, sim = evaluate.best(realisation)
+    params, train_error, _ = evaluate.best(realisation)
+    sim = evaluate.complete(params, realisation)
     held_error = evaluate.comparison.error(sim.features, held, bias_runs=train)
     intervals = {p.name: _interval(evaluate.profile(p.name, params, realisation), len(train), p)
                  for p in fitted}
@@ -398,17 +437,25 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
             "better_than_best": bool(score < first.score)}
 
 
-def simulations_per_fit(names: list[str]) -> int:
-    """Simulations per command that fitting these candidates takes at most: the grid,
-    the Brent steps, and for a random geometry the other realisations and a second grid
-    (a progress bar's total)."""
+def simulations_planned(names: list[str], observed: Observed) -> int:
+    """At most how many command simulations diagnosing `observed` with these candidates
+    takes (a progress bar's total): the base model on every command; per cause the grid,
+    the Brent steps, for a random geometry the other realisations and a second grid, for
+    the contenders refine_parameters' passes and profile, each on the training commands;
+    the held-out commands at each fit's end (main and refined); the pair on every
+    command."""
     def refining(name):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause_registry.get(name).held)
         return 0 if n == 1 else len(REFINE_STEPS) * (2 * n + 1) + 2 * n
 
-    return sum(GRID_POINTS + REFINE_ITERATIONS + (
+    searched = sum(GRID_POINTS + REFINE_ITERATIONS + (
         REALISATIONS - 1 + GRID_POINTS if cause_registry.get(name).random_realisation else 0)
-        for name in names) + sum(sorted(map(refining, names))[-REFINE_CONTENDERS:]) + 1
+        for name in names) + sum(sorted(map(refining, names))[-REFINE_CONTENDERS:])
+    train, _ = split(observed)
+    n_groups = len(observed.groups)
+    n_trained = len(set(observed.run_group[train].tolist()))
+    ends = len(names) + min(REFINE_CONTENDERS, len(names))
+    return 2 * n_groups + n_trained * searched + (n_groups - n_trained) * ends
 
 
 @dataclasses.dataclass

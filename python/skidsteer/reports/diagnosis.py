@@ -25,7 +25,7 @@ from skidsteer.data.files import begin_outputs, finish_outputs, write_json, writ
 from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
                                             model_factory, simulate_groups)
-from skidsteer.diagnosis.fit import Z_CONSISTENT, diagnose_observed, simulations_per_fit
+from skidsteer.diagnosis.fit import Z_CONSISTENT, diagnose_observed, simulations_planned
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
                                         steady_summary, steady_window)
@@ -91,7 +91,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
                       f"; finished simulations are kept in {cache_dir}, and the same command "
                       "rerun resumes from them")
     names = candidates or sorted(cause_registry.CAUSES)
-    bar = _Progress(len(observed.groups) * (1 + simulations_per_fit(names)), progress,
+    bar = _Progress(simulations_planned(names, observed), progress,
                     "diagnose")
     try:
         # a report plots the base model: its time series are needed, so with out_dir
