@@ -232,6 +232,21 @@ def test_an_interval_open_on_one_side_reaches_the_prior():
     assert lo == p.low and 1.0 < hi < 2.0
 
 
+def test_an_interval_follows_a_quadratic_profile_between_the_probes():
+    # E^2 = 1 + 50 u^2 around a fit at 0.3 of the damping prior's log range, probed a
+    # tenth of the prior apart (refine_parameters' profile): with 9 training runs the
+    # bound E^2 <= 10/9 lies at u = +-0.047, inside the probes; a straight line between
+    # the fit and a probe (E^2 1.5) would put it at +-0.022 (issue 21's too-narrow
+    # intervals).  Exact for a quadratic, to rounding.
+    p = causes.get("mast_compliance").held[0]
+    assert p.log
+    points = [(p.from_unit(0.3 + du), float(np.sqrt(1 + 50 * du ** 2))) for du in (-0.1, 0, 0.1)]
+    lo, hi = _interval(points, 9, p)
+    half = np.sqrt((1 / 9) / 50)
+    assert p.to_unit(lo) == pytest.approx(0.3 - half, abs=1e-9)
+    assert p.to_unit(hi) == pytest.approx(0.3 + half, abs=1e-9)
+
+
 def test_generated_truths_draw_the_held_parameters_from_their_priors():
     mast = causes.get("mast_compliance")
     _, values = truth_edit("mast_compliance", None, np.random.default_rng(1), held="prior")

@@ -38,14 +38,21 @@ CENTRIPETAL_RESOLUTION_M_S2 = 0.004
 SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds this
 
 
+def _side_speeds(m: mujoco.MjModel, v_mps: float, omega_deg_s: float) -> np.ndarray:
+    """|wheel speed| (rad/s) the command asks of each side (left, right)."""
+    return np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
+
+
+def _distinct_rates_hz(side_speeds) -> tuple[float, ...]:
+    return tuple(sorted({round(float(w) / (2 * np.pi), 12) for w in side_speeds if w > 0}))
+
+
 def wheel_rates_hz(m: mujoco.MjModel, v_mps: float, omega_deg_s: float) -> tuple[float, ...]:
     """The wheels' rotation rates (Hz, > 0) the command (v_x*, omega_z*) asks for
     (Sec. 6.1's feed-forward).  One rate per side, merged when the sides turn equally
     fast.  The servos droop under the tires' torque (~9 % slower at 30 deg/s on
     concrete): actual_wheel_rates_hz reads the simulated wheels instead."""
-    speeds = np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
-    rates = sorted({round(float(w) / (2 * np.pi), 12) for w in speeds if w > 0})
-    return tuple(rates)
+    return _distinct_rates_hz(_side_speeds(m, v_mps, omega_deg_s))
 
 
 def actual_wheel_rates_hz(m: mujoco.MjModel, run, v_mps: float, omega_deg_s: float
@@ -53,12 +60,12 @@ def actual_wheel_rates_hz(m: mujoco.MjModel, run, v_mps: float, omega_deg_s: flo
     """The wheels' rotation rates (Hz) over a simulated run's steady window (from
     STEADY_FROM_S), as the wheel-order features need them: one per side where the
     command turns the sides at different rates (wheel_rates_hz), else one for all."""
-    commanded = wheel_rates_hz(m, v_mps, omega_deg_s)
+    sides = _side_speeds(m, v_mps, omega_deg_s)
+    commanded = _distinct_rates_hz(sides)
     steady = np.abs(run.wheel_speed[run.time_s - run.time_s[0] >= STEADY_FROM_S])
     if not commanded or not len(steady):
         return commanded
     left = roles.roles_of(m).wheel_position_m[:, 1] > 0
-    sides = np.abs(DriveGeometry.from_model(m).wheel_speeds(v_mps, np.deg2rad(omega_deg_s)))
     turning = [(w, wheels) for w, wheels in zip(sides, (left, ~left)) if w > 0]
     if len(commanded) == 1:  # the turning sides at one commanded rate: one line per order
         return (float(np.mean([steady[:, wheels].mean() for _, wheels in turning]))

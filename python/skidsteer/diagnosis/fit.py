@@ -124,26 +124,39 @@ def split(observed: Observed) -> tuple[np.ndarray, np.ndarray]:
 def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
     """Values whose training error is within the profile bound E^2 <= E_min^2 (1 + 1/n):
     a Delta chi^2 = 1 bound with the residual variance scaled to the best fit and each
-    training run counted as one observation (features of a run are correlated).  A side
-    where no evaluated value crosses the bound is open: it ends at the prior's bound
-    (the data do not bound it there)."""
+    training run counted as one observation (features of a run are correlated).
+
+    Each edge is where the parabola through the last point inside the bound, the first
+    outside and the point beyond the first (in the prior's coordinate, log or linear)
+    crosses the bound: E^2 is quadratic near a minimum, and a straight line between two points a
+    tenth of the prior apart puts the edge too close where the error rises steeply.
+    Linear where no third point or no crossing on that stretch.  A side where no
+    evaluated value crosses the bound is open: it ends at the prior's bound (the data
+    do not bound it there)."""
     log = parameter.log
     ev = sorted(evaluations)
-    x = np.array([v for v, _ in ev])
+    coord = np.log if log else (lambda a: a)
+    inv = np.exp if log else (lambda a: a)
+    c = coord(np.array([v for v, _ in ev], dtype=float))
     e2 = np.array([e for _, e in ev]) ** 2
     bound = e2.min() * (1 + 1 / max(n_train, 1))
     ok = np.flatnonzero(e2 <= bound)
     lo_i, hi_i = ok.min(), ok.max()
-    coord = np.log if log else (lambda a: a)
-    inv = np.exp if log else (lambda a: a)
 
-    def edge(i, j):  # where the error crosses the bound between points i (in) and j (out)
-        if j < 0 or j >= len(x):
+    def edge(i, j, k):  # the crossing between points i (in) and j (out); k: i's other side
+        if j < 0 or j >= len(c):
             return float(parameter.low if j < 0 else parameter.high)
         t = (bound - e2[i]) / (e2[j] - e2[i]) if e2[j] != e2[i] else 0.0
-        return float(inv(coord(x[i]) + t * (coord(x[j]) - coord(x[i]))))
+        crossing = c[i] + t * (c[j] - c[i])
+        if 0 <= k < len(c):
+            roots = np.roots(np.polyfit(c[[k, i, j]], e2[[k, i, j]] - bound, 2))
+            inside = [float(r.real) for r in roots if abs(r.imag) < 1e-12
+                      and min(c[i], c[j]) <= r.real <= max(c[i], c[j])]
+            if inside:
+                crossing = min(inside, key=lambda r: abs(r - crossing))
+        return float(inv(crossing))
 
-    return edge(lo_i, lo_i - 1), edge(hi_i, hi_i + 1)
+    return edge(lo_i, lo_i - 1, lo_i + 1), edge(hi_i, hi_i + 1, hi_i - 1)
 
 
 def _parameter_key(params: dict[str, float]) -> tuple:
