@@ -47,6 +47,7 @@ from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E40
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
 from skidsteer.robot import Setup  # noqa: E402
+from skidsteer.simulation.cache import code_fingerprint  # noqa: E402
 
 FLOORS = ("concrete", "tile", "carpet")  # the plugin's floors (Sec. 3.3 and assumed)
 OMEGAS_DEG_S = np.arange(10.0, 65.0, 5.0)  # Sec. 3.2's swivels span 4-64 deg/s
@@ -111,7 +112,9 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
             "removed": result["gain"]["relative_reduction"],
             "outcome": outcome(case["effect"], result),
-            "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"]}
+            "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
+            # the code that diagnosed it (a resumed run may mix versions: the report says)
+            "code": code_fingerprint()[:12]}
 
 
 def _recovery(row: dict) -> str:
@@ -121,6 +124,15 @@ def _recovery(row: dict) -> str:
     main = causes.get(row["effect"]).main.name
     return (f"{row['parameters'][main]:.3g} / {row['truth'][main]:.3g} "
             f"({row['parameters'][main] / row['truth'][main]:.2f}x)")
+
+
+def _versions(rows: list[dict]) -> list[tuple[str, int]]:
+    """(code fingerprint, how many datasets it diagnosed), in the rows' order."""
+    counts: dict[str, int] = {}
+    for r in rows:
+        code = r.get("code", "not recorded")
+        counts[code] = counts.get(code, 0) + 1
+    return list(counts.items())
 
 
 def report(rows: list[dict]) -> str:
@@ -139,6 +151,8 @@ def report(rows: list[dict]) -> str:
              f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
              f"causes clear of the noise named right in {right} of {len(effects)}"
              + (f" ({right / len(effects):.0%})" if effects else "") + ".",
+             "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
+             + ", ".join(f"{code} for {n}" for code, n in _versions(rows)) + ".",
              f"Machine: {machine()}."]
     return "\n".join(lines)
 

@@ -79,6 +79,10 @@ class Cause:
     # True when apply's seed changes the geometry (a rough floor, wheel phases):
     # the diagnosis then chooses the realisation too (diagnosis.fit_cause)
     random_realisation: bool = False
+    # parameters -> the same kind of effect on the other branch of an ambiguity the
+    # features leave (a frame's roll and pitch stiffnesses exchanged): the diagnosis
+    # also searches from a fit's mirror image (diagnosis.fit.fit_every_parameter)
+    mirror: Callable[[Mapping[str, float]], dict[str, float]] | None = None
 
     def parameters(self, main_value: float | None = None,
                    overrides: Mapping[str, float] | None = None) -> dict[str, float]:
