@@ -186,7 +186,9 @@ def main(argv=None) -> int:
                 f.write(json.dumps(row) + "\n")
             print(f"{row['case']}: {row['effect']} -> {row['verdict']} {row['cause'] or ''} "
                   f"({row['outcome']}, {row['diagnose_s']:.0f} s)", flush=True)
-    text = report(list(done.values()))
+    fixed = list(FIXED)
+    text = report(sorted(done.values(), key=lambda r: (0, fixed.index(r["case"]))
+                         if r["case"] in FIXED else (1, r["seed"])))
     print(text)
     if args.markdown:
         args.markdown.write_text(
