@@ -129,9 +129,9 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
 
     Each edge is where the parabola through the last point inside the bound, the first
     outside and the point beyond the first (in the prior's coordinate, log or linear)
-    crosses the bound: E^2 is quadratic near a minimum, and a straight line between two points a
-    tenth of the prior apart puts the edge too close where the error rises steeply.
-    Linear where no third point or no crossing on that stretch.  A side where no
+    crosses the bound: E^2 is quadratic near a minimum, and a straight line between two
+    points a tenth of the prior apart puts the edge too close where the error rises
+    steeply.  Linear where no third point or no crossing on that stretch.  A side where no
     evaluated value crosses the bound is open: it ends at the prior's bound (the data
     do not bound it there)."""
     log = parameter.log
@@ -488,9 +488,9 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
     """At most how many command simulations diagnosing `observed` with these candidates
     takes (a progress bar's total): the base model on every command; per cause the grid,
     the Brent steps, for a random geometry the other realisations and a second grid, for
-    the contenders refine_parameters' passes and profile (twice with a mirror), each on the training commands;
-    the held-out commands at each fit's end (main and refined); the pair on every
-    command."""
+    the contenders refine_parameters' passes and profile (twice with a mirror), each on
+    the training commands; the held-out commands at each fit's end (main and refined);
+    the pair on every command."""
     def refining(name):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause_registry.get(name).held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n

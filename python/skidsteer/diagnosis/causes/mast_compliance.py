@@ -57,12 +57,12 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
 def exchanged_axes(params) -> dict[str, float]:
     """The frame with its roll and pitch stiffnesses exchanged (Cause.mirror): a foot
     stiffer about one axis and one stiffer about the other rock at similar pairs of
-    frequencies (the frame's roll and pitch inertias about its foot differ by 5 %: 0.543
-    and 0.517 kg m^2 on the extended Pioneer),
-    so the fit can settle on either."""
+    frequencies (the frame's roll and pitch inertias about its foot differ by 5 %:
+    0.543 and 0.517 kg m^2 on the extended Pioneer), so the fit can settle on either."""
     roll_k = params["stiffness_n_m_per_rad"]
     ratio = params["pitch_stiffness_ratio"]
-    return {**params, "stiffness_n_m_per_rad": roll_k * ratio, "pitch_stiffness_ratio": 1 / ratio}
+    return {**params, "stiffness_n_m_per_rad": roll_k * ratio,
+            "pitch_stiffness_ratio": 1 / ratio}
 
 
 CAUSE = Cause("mast_compliance", "the frame rocks on a flexible joint at the mast's foot",
