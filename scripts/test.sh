@@ -29,8 +29,7 @@ status=0
 # (CI's 30-min budget).  The modules go out in file order (--no-loadscope-reorder):
 # xdist's default sends the modules with most tests first, which queued
 # test_diagnose_hidden.py (then 4 tests, ~9 min) behind everything else on one
-# worker while the other idled.  The hidden run-out (~10 min) runs only with
-# SKIDSTEER_SLOW_TESTS=1.  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
+# worker while the other idled.  SKIDSTEER_TEST_WORKERS=0 runs them in one process.
 workers=${SKIDSTEER_TEST_WORKERS:-2}
 parallel=()
 if [[ "$workers" -gt 0 ]]; then

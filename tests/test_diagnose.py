@@ -4,10 +4,10 @@ The hidden-effect tests build a "measured" dataset from a truth model (our model
 plus one effect, seeded) through the sensor chain into LabVIEW xlsx files, and
 require diagnose to find what was hidden.  They are the slow part of the suite
 (1.5-3 min per effect of a worker under CI=true, sharing one simulation cache;
-wheel eccentricity's 20 s records 10.5 min, run only with SKIDSTEER_SLOW_TESTS=1);
+wheel eccentricity's longer records more);
 the records are 8 s, the shortest the band features allow (3 s start-up window,
 4 s onwards steady window with 4096-sample Welch segments), except for wheel
-eccentricity, whose once-per-revolution line needs 20 s (RECORD_S).  Half of the
+eccentricity, whose once-per-revolution line needs 14 s (RECORD_S).  Half of the
 effects are checked in tests/test_diagnose_hidden.py, so that the two pytest
 workers share the work (tests/hidden_effects.py).
 """
