@@ -31,9 +31,9 @@ DURATION_S = 8.0
 RECORD_S = {"wheel_eccentricity": 14.0}
 # the hidden effects diagnosed in tests/test_diagnose_hidden.py; the others in
 # tests/test_diagnose.py, with the outside effect, the null and the output tests
-# (measured under CI=true at 4cf74b6: 634 s for the run-out, 89-170 s for each of the
-# others, the outside effect 146 s): about half of the diagnoses' time each, so the
-# two workers finish together
+# (measured under CI=true at 4cf74b6: 89-170 s for each 8 s effect, the outside
+# effect 146 s; the run-out on 14 s records 228 s alone): about half of the
+# diagnoses' time each, so the two workers finish together
 SECOND_MODULE = ("mast_compliance", "sensor_mount", "slip_lambda_max", "wheel_eccentricity")
 
 

@@ -9,19 +9,17 @@ import pytest
 
 from hidden_effects import SECOND_MODULE, check_named, check_not_wrong, hidden_diagnoses
 
-EFFECTS = list(SECOND_MODULE)
-
 
 @pytest.fixture(scope="module")
 def hidden(tmp_path_factory):
     return hidden_diagnoses(tmp_path_factory)
 
 
-@pytest.mark.parametrize("effect", EFFECTS)
+@pytest.mark.parametrize("effect", SECOND_MODULE)
 def test_diagnose_names_the_hidden_cause(hidden, effect):
     check_named(*hidden(effect)[:2], effect)
 
 
-@pytest.mark.parametrize("effect", EFFECTS)
+@pytest.mark.parametrize("effect", SECOND_MODULE)
 def test_diagnose_never_names_a_wrong_cause(hidden, effect):
     check_not_wrong(hidden(effect)[1], effect)

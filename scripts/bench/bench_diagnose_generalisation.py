@@ -34,6 +34,7 @@ import argparse
 import json
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -128,11 +129,7 @@ def _recovery(row: dict) -> str:
 
 def _versions(rows: list[dict]) -> list[tuple[str, int]]:
     """(code fingerprint, how many datasets it diagnosed), in the rows' order."""
-    counts: dict[str, int] = {}
-    for r in rows:
-        code = r.get("code", "not recorded")
-        counts[code] = counts.get(code, 0) + 1
-    return list(counts.items())
+    return list(Counter(r.get("code", "not recorded") for r in rows).items())
 
 
 def report(rows: list[dict]) -> str:
