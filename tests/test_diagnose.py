@@ -31,13 +31,13 @@ from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Compari
                                             simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import REFINE_STEPS, _interval, fit_every_parameter, refine_parameters
-from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, trial_start, truth_edit
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
-from skidsteer.robot import load_model
-from skidsteer.simulation.run import settle
+from skidsteer.robot import Setup, load_model, roles_of
+from skidsteer.simulation.run import FULLPHYSICS, settle
 from skidsteer.simulation.sensor_chain import SensorChain
 
 from hidden_effects import (DURATION_S, SECOND_MODULE, SEED, check_named, check_not_wrong,
@@ -292,6 +292,31 @@ def test_generated_truths_draw_the_held_parameters_from_their_priors():
     assert any(values[p.name] != p.value for p in mast.held)
     _, fixed = truth_edit("mast_compliance", None, np.random.default_rng(1))
     assert all(fixed[p.name] == p.value for p in mast.held)
+
+
+def test_repeat_trials_start_where_a_swivel_left_the_robot():
+    m = load_model(Setup(build="extended", floor="concrete"))
+    parts = roles_of(m)
+    base = m.jnt_qposadr[np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0]]
+    wheel = {side: [m.jnt_qposadr[w.joint] for w, s in zip(parts.wheels, parts.wheel_side)
+                    if s == sign] for side, sign in (("left", 1), ("right", -1))}
+    assert len(wheel["left"]) == len(wheel["right"]) == 2
+    starts = []
+    for seed in (1, 2):
+        d = mujoco.MjData(m)
+        mujoco.mj_setState(m, d, trial_start(m, np.random.default_rng(seed), settle_s=1.0),
+                           FULLPHYSICS)
+        left, right = d.qpos[wheel["left"]], d.qpos[wheel["right"]]
+        # a swivel turns the sides opposite ways and a side's wheels alike (within the
+        # settling's creep: 0.01 rad is 1 mm at the rim, far above a settled wheel's)
+        assert np.allclose(left, left[0], atol=0.01) and np.allclose(right, right[0], atol=0.01)
+        assert abs(left[0] + right[0]) < 0.01
+        assert np.abs(d.qvel).max() < 0.05  # settled: at rest on its tires
+        w, z = d.qpos[base + 3], d.qpos[base + 6]  # the base's quaternion (nearly a yaw)
+        starts.append((2 * np.arctan2(z, w), right[0]))  # (yaw, wheel angle)
+    (yaw_a, wheel_a), (yaw_b, wheel_b) = starts
+    assert abs(np.angle(np.exp(1j * (yaw_a - yaw_b)))) > 0.01  # drawn, not always 0
+    assert abs(np.angle(np.exp(1j * (wheel_a - wheel_b)))) > 0.01
 
 
 # ------------------------------------------------------------------ verdict rules

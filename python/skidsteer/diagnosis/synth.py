@@ -2,8 +2,9 @@
 
 The truth is our model plus at most one effect, a candidate cause
 (diagnosis.causes) or an effect outside them (OUTSIDE_EFFECTS), with seeded
-parameters.  Each command is run ``trials`` times from a perturbed start
-(simulation.perturbed) and recorded through sensor_chain.SensorChain.record:
+parameters.  Each command is run ``trials`` times, each trial from where a previous
+swivel left the robot (trial_start) with its tires' residual deflections
+(simulation.perturbed), and recorded through sensor_chain.SensorChain.record:
 the sensor's bandwidth, noise, 60 Hz hum, one zero-g offset error per axis for
 the whole dataset, volts in LabVIEW xlsx files.  Nothing in the dataset names
 the effect; the truth goes to a separate file when asked for.
@@ -12,6 +13,7 @@ the effect; the truth goes to a separate file when asked for.
 from __future__ import annotations
 
 import zlib
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, Mapping
 
@@ -24,7 +26,8 @@ from skidsteer.data.recording import write_run
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import model_factory
 from skidsteer.robot import Setup, resolve, roles
-from skidsteer.simulation.run import run_batch
+from skidsteer.simulation.drive import DriveGeometry
+from skidsteer.simulation.run import runs_from_rest, settle
 from skidsteer.simulation.sensor_chain import SensorChain
 
 # ------------------------------------------------------------ outside effects
@@ -58,6 +61,39 @@ OUTSIDE_EFFECTS: dict[str, tuple[Callable, dict[str, float]]] = {
                                         "imbalance_kg_m": FAN_IMBALANCE_KG_M}),
 }
 EFFECTS = (None, *causes.CAUSES, *OUTSIDE_EFFECTS)
+
+
+# ------------------------------------------------------------ trials
+
+def trial_start(m: mujoco.MjModel, rng: np.random.Generator, settle_s: float = 2.0
+                ) -> np.ndarray:
+    """A repeat trial's settled start state: where a previous swivel left the robot.
+
+    A swivel turns the robot in place by a yaw and its wheels by a number of turns
+    that is not whole, so a real dataset's trials start at a yaw and at wheel angles
+    nobody chose: here both are uniform in [0, 2 pi), the left wheels turned by minus
+    the angle of the right ones (a swivel turns the sides opposite ways, and the front
+    and rear wheel of a side alike, so the wheels' relative phases are kept).  On a
+    flat floor with round wheels this changes nothing; on an uneven floor the wheels
+    stand on other spots, and out-of-round wheels start at other phases, so the
+    trials' spread shows how much of a start-up depends on them (a run-out's start-up
+    moves by 2-17 trial spreads with the wheels' angle alone, measured on issue 21's
+    draw-1006)."""
+    d = mujoco.MjData(m)
+    yaw, wheel_angle = rng.uniform(0.0, 2 * np.pi, 2)
+    parts = roles.roles_of(m)
+    base = int(m.body_jntadr[parts.chassis])  # the wheels' root body's first joint
+    if base < 0 or m.jnt_type[base] != mujoco.mjtJoint.mjJNT_FREE:
+        raise ValueError(f"trial_start needs the robot's base body "
+                         f"{m.body(parts.chassis).name!r} on a free joint")
+    quat = d.qpos[m.jnt_qposadr[base] + 3:m.jnt_qposadr[base] + 7]
+    turned = np.empty(4)
+    mujoco.mju_mulQuat(turned, np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]), quat)
+    quat[:] = turned
+    for wheel, side in zip(parts.wheels, parts.wheel_side):  # side: +1 left, -1 right
+        d.qpos[m.jnt_qposadr[wheel.joint]] -= side * wheel_angle
+    mujoco.mj_forward(m, d)
+    return settle(m, d, settle_s)
 
 
 def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.random.Generator,
@@ -113,11 +149,19 @@ def make_dataset(out_dir, effect: str | None = None, params: Mapping[str, float]
     offsets = chain.draw_offsets(rng)
     setup = resolve(setup)
     m = model_factory(edit=edit, timestep=timestep)(setup)
+    drive = DriveGeometry.from_model(m)
+    nstep = int(round(duration_s / m.opt.timestep))
     infos = []
     for omega in omegas:
         seeds = [zlib.crc32(repr((seed, float(omega), k)).encode()) for k in range(trials)]
-        runs = run_batch([m] * trials, [(0.0, float(omega))] * trials, duration_s,
-                         nthread=nthread, seeds=seeds)
+        controls = drive.ramp(m, 0.0, float(omega), nstep)[None]
+
+        def trial(k):  # its own start (a seed apart from perturbed's and the chain's)
+            start = trial_start(m, np.random.default_rng([seeds[k], 1]))
+            return runs_from_rest(m, controls, nthread=1, seeds=[seeds[k]], settled=start)[0]
+
+        with ThreadPoolExecutor(max_workers=max(1, nthread)) as pool:
+            runs = list(pool.map(trial, range(trials)))
         for k, run in enumerate(runs):
             name = run_file_name(0.0, omega, duration_s, setup, k + 1, "." + file_format)
             time_s, accel = chain.record(run, np.random.default_rng(seeds[k]), offsets)
