@@ -14,6 +14,7 @@ workers share the work (tests/hidden_effects.py).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -255,6 +256,40 @@ def test_a_frame_fit_is_searched_again_from_its_axes_exchanged():
     refine_parameters(alone, parameters, start, 0)
     assert distance(min(alone.seen, key=error), image) < distance(min(alone.seen, key=error),
                                                                   truth)
+    surface = _Surface(error)
+    fit_every_parameter(surface, mast, start, 0)
+    best = min(surface.seen, key=error)
+    for p in parameters:
+        assert abs(p.to_unit(best[p.name]) - p.to_unit(truth[p.name])) <= REFINE_STEPS[-1] + 1e-9, \
+            (p.name, best[p.name])
+
+
+def test_a_frame_fit_starts_from_the_best_of_a_stiffness_design():
+    # issue 21's draw-1003: roll 169 N m/rad, pitch 9.6x; the main fit (ratio 1) ended
+    # near the null, in a wide basin around roll 2244, pitch 0.5x (training error 1.72
+    # there, 1.35 at the truth, measured).  Neither the search from the main fit nor
+    # the one from its mirror reaches the truth's narrow basin; the design's points
+    # over both stiffnesses do, and the search from the best of them must end within
+    # the fine step
+    mast = causes.get("mast_compliance")
+    parameters = [mast.main, *mast.held]
+    truth = {"stiffness_n_m_per_rad": 169.0, "pitch_stiffness_ratio": 9.6, "damping_ratio": 0.03}
+    decoy = {"stiffness_n_m_per_rad": 2244.0, "pitch_stiffness_ratio": 0.5, "damping_ratio": 0.03}
+
+    def distance(values, centre):
+        return sum((p.to_unit(values[p.name]) - p.to_unit(centre[p.name])) ** 2
+                   for p in parameters)
+
+    def error(values):
+        return min(1.0 + 100 * distance(values, truth), 1.3 + 20 * distance(values, decoy))
+
+    start = mast.parameters(2244.0)
+    design = mast.design()
+    assert len(design) == 16 and all(p.low <= d[p.name] <= p.high or p is mast.held[1]
+                                     for d in design for p in parameters)
+    without = _Surface(error)
+    fit_every_parameter(without, dataclasses.replace(mast, design=None), start, 0)
+    assert error(min(without.seen, key=error)) > 1.25  # stays with the decoy
     surface = _Surface(error)
     fit_every_parameter(surface, mast, start, 0)
     best = min(surface.seen, key=error)

@@ -23,7 +23,9 @@ at once, so a long run can be read while it goes on and, rerun with the same
 arguments, resumes.  The datasets and a shared simulation cache live under
 ``--out`` (regenerated, not committed); the rows behind the committed table are
 docs/diagnose-generalisation.jsonl (a few kB), so that a run on another machine
-extends the table rather than starting it again.  A long run, not CI: CI keeps the
+extends the table rather than starting it again; ``--rerun CASE`` runs a case again
+with the code as it is (the table shows a case's newest row and says how many it
+replaces).  A long run, not CI: CI keeps the
 fixed hidden-effect subset of tests/test_diagnose.py.
 
     python scripts/bench/bench_diagnose_generalisation.py --datasets 40 --out /tmp/gen \
@@ -157,6 +159,12 @@ def report(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _rows(results: Path) -> list[dict]:
+    """Every row of the results file, in the order they were run."""
+    return ([json.loads(line) for line in results.read_text().splitlines()]
+            if results.exists() else [])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--datasets", type=int, default=40, help="drawn datasets (besides the "
@@ -166,6 +174,9 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=20.0, help="record length, s")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
+    ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
+                    "code as it is (their earlier rows stay in the results file; the table "
+                    "shows the newest row of a case and counts the ones it replaces)")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--results", type=Path, help="the rows (JSON lines; default: "
                     "OUT/results.jsonl); finished cases in it are not run again")
@@ -176,11 +187,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     results = args.results or args.out / "results.jsonl"
-    done = ({r["case"]: r for r in map(json.loads, results.read_text().splitlines())}
-            if results.exists() else {})
+    done = {r["case"]: r for r in _rows(results)}  # a case's newest row
+    rerun = set(args.rerun)
     if not args.report:
         for case in plan(args.datasets, args.first_seed):
-            if case["case"] in done or (args.only and case["case"] not in args.only):
+            if (case["case"] in done and case["case"] not in rerun) or (
+                    args.only and case["case"] not in args.only):
                 continue
             row = run_case(case, args.out, args.trials, args.duration, args.threads)
             done[row["case"]] = row
@@ -191,6 +203,10 @@ def main(argv=None) -> int:
     fixed = list(FIXED)
     text = report(sorted(done.values(), key=lambda r: (0, fixed.index(r["case"]))
                          if r["case"] in FIXED else (1, r["seed"])))
+    superseded = len(_rows(results)) - len(done)
+    if superseded:
+        text += (f"\n{superseded} earlier row(s) of rerun cases are in the results file and "
+                 "not in the table.")
     print(text)
     if args.markdown:
         args.markdown.write_text(

@@ -15,8 +15,9 @@
    robot has one, and it matters as much as the parameter.
 4. The best REFINE_CONTENDERS causes then have every parameter fitted (both
    frame stiffnesses and the damping, the roughness's RMS and correlation
-   length, ...; fit_every_parameter: a bounded pattern search, and again from
-   the fit's mirror image where a cause has one), each with an interval from
+   length, ...; fit_every_parameter: a bounded pattern search from the main fit
+   or a coarse design's best point where a cause has one, and again from the
+   fit's mirror image where a cause has one), each with an interval from
    the error's profile through the fit.
 5. Each fit is scored on the held-out runs, plus an AIC-style penalty per fitted
    parameter (and ln(REALISATIONS) for a chosen realisation); the two best are
@@ -331,21 +332,32 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
 
 
 def fit_every_parameter(evaluate, cause, start: dict[str, float], realisation: int) -> None:
-    """refine_parameters from `start` (the main parameter's fit); for a cause with a
-    mirror (Cause.mirror: parameters that describe the other branch of an ambiguity the
-    search cannot cross, e.g. a frame's roll and pitch stiffnesses exchanged), the
-    mirror image of that fit too, searched from when it fits the training runs better.
+    """refine_parameters from `start` (the main parameter's fit) or, for a cause with a
+    design (Cause.design: coarse start points over parameters the main fit does not
+    vary), from the design's best point where it fits the training runs better; for a
+    cause with a mirror (Cause.mirror: parameters that describe the other branch of an
+    ambiguity the search cannot cross, e.g. a frame's roll and pitch stiffnesses
+    exchanged), the mirror image of that fit too, searched from when it fits the
+    training runs better.
     A search along the axes stays in the basin it starts in: issue 21's anisotropic
     frame (roll 400 N m/rad, pitch 0.5x) stopped at roll 161, pitch 2x, whose mirror
     (322, 0.5x) lies in the truth's basin (training error 1.65 at 250, 0.5x and 1.60
     at 400, 0.5x against 2.03 at 161, 2x; measured on its training runs)."""
     parameters = [cause.main, *cause.held]
+
+    def clipped(values):
+        return {p.name: float(np.clip(values[p.name], p.low, p.high)) for p in parameters}
+
+    if cause.design is not None:
+        points = [clipped(values) for values in cause.design()]
+        errors = evaluate([(values, realisation) for values in points])
+        if min(errors) < evaluate([(start, realisation)])[0]:
+            start = points[int(np.argmin(errors))]
     refine_parameters(evaluate, parameters, start, realisation)
     if cause.mirror is None:
         return
     best, error, _ = evaluate.best(realisation)
-    mirrored = cause.mirror(best)
-    image = {p.name: float(np.clip(mirrored[p.name], p.low, p.high)) for p in parameters}
+    image = clipped(cause.mirror(best))
     if evaluate([(image, realisation)])[0] < error:
         refine_parameters(evaluate, parameters, image, realisation)
 
@@ -488,14 +500,16 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
     """At most how many command simulations diagnosing `observed` with these candidates
     takes (a progress bar's total): the base model on every command; per cause the grid,
     the Brent steps, for a random geometry the other realisations and a second grid, for
-    the contenders refine_parameters' passes and profile (twice with a mirror), each on
+    the contenders a design's points, refine_parameters' passes and profile (twice with
+    a mirror), each on
     the training commands; the held-out commands at each fit's end (main and refined);
     the pair on every command."""
     def refining(name):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause_registry.get(name).held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
-        mirrored = cause_registry.get(name).mirror is not None
-        return 0 if n == 1 else search + (1 + search if mirrored else 0)
+        cause = cause_registry.get(name)
+        design = len(cause.design()) if cause.design is not None else 0
+        return 0 if n == 1 else design + search + (1 + search if cause.mirror else 0)
 
     searched = sum(GRID_POINTS + REFINE_ITERATIONS + (
         REALISATIONS - 1 + GRID_POINTS if cause_registry.get(name).random_realisation else 0)

@@ -83,6 +83,11 @@ class Cause:
     # features leave (a frame's roll and pitch stiffnesses exchanged): the diagnosis
     # also searches from a fit's mirror image (diagnosis.fit.fit_every_parameter)
     mirror: Callable[[Mapping[str, float]], dict[str, float]] | None = None
+    # () -> parameter sets a fit of every parameter also starts from (a coarse design over
+    # parameters the main parameter's one-dimensional fit says nothing about: a frame's
+    # roll and pitch stiffnesses); the search starts from the best of them and the main
+    # fit (diagnosis.fit.fit_every_parameter)
+    design: Callable[[], list[dict[str, float]]] | None = None
 
     def parameters(self, main_value: float | None = None,
                    overrides: Mapping[str, float] | None = None) -> dict[str, float]:

@@ -54,6 +54,25 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
                         damping=critical_damping(k, inertia[i], params["damping_ratio"]))
 
 
+# assumed: 4 levels per stiffness (16 start points, each simulated on the training
+# commands: the most a contender's fit affords within issue 21's 5 min), at the middles
+# of four equal log-slices of the stiffness prior, 153-1961 N m/rad, whose rocking
+# frequencies lie 1.5x apart (2.7-9.6 Hz with the frame's 0.53 kg m^2)
+DESIGN_LEVELS = 4
+
+
+def stiffness_design() -> list[dict[str, float]]:
+    """Start points over the roll and pitch stiffnesses (Cause.design), damping at its
+    prior's value.  The main fit varies both stiffnesses together (ratio 1); a frame
+    whose axes differ by several times sits in a basin the search from there does not
+    reach: issue 21's draw-1003 (roll 169 N m/rad, pitch 9.6x) was fitted at roll 2244,
+    pitch 0.5x (training error 1.72), where the design's (153, 1961 N m/rad) scores 1.38
+    and the truth 1.35 (measured on its training runs)."""
+    levels = STIFFNESS.from_unit((np.arange(DESIGN_LEVELS) + 0.5) / DESIGN_LEVELS)
+    return [{STIFFNESS.name: float(roll), PITCH_STIFFNESS_RATIO.name: float(pitch / roll),
+             DAMPING_RATIO.name: DAMPING_RATIO.value} for roll in levels for pitch in levels]
+
+
 def exchanged_axes(params) -> dict[str, float]:
     """The frame with its roll and pitch stiffnesses exchanged (Cause.mirror): a foot
     stiffer about one axis and one stiffer about the other rock at similar pairs of
@@ -67,4 +86,4 @@ def exchanged_axes(params) -> dict[str, float]:
 
 CAUSE = Cause("mast_compliance", "the frame rocks on a flexible joint at the mast's foot",
               STIFFNESS, (DAMPING_RATIO, PITCH_STIFFNESS_RATIO), apply, recovery_factor=1.5,
-              null_value=3000.0, mirror=exchanged_axes)
+              null_value=3000.0, mirror=exchanged_axes, design=stiffness_design)
