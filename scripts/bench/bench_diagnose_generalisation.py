@@ -16,7 +16,11 @@ An outcome per dataset:
 - a cause: ``inside noise`` when the base model's error is already within
   Z_CONSISTENT (no method can name it; not counted), else right when the named
   cause (verdict explained or partly-explained) is the hidden one, wrong when it is
-  another, missed when nothing is named.
+  another, missed when nothing is named.  A cause's dataset whose held-out command
+  (the one the verdict is judged on) shows no discrepancy of its own (the base
+  model within Z_CONSISTENT there) is marked ``held-out quiet``: the effect shows in
+  the training commands only, and no held-out test can confirm a cause.  The report
+  gives the rate of right names with and without those.
 
 Every finished dataset is appended to ``--results`` (default ``--out``/results.jsonl)
 at once, so a long run can be read while it goes on and, rerun with the same
@@ -137,22 +141,35 @@ def _versions(rows: list[dict]) -> list[tuple[str, int]]:
     return list(Counter(r.get("code", "not recorded") for r in rows).items())
 
 
+def _held_out_quiet(row: dict) -> bool:
+    """A cause's dataset whose held-out command shows no discrepancy of its own."""
+    return (row["effect"] in causes.CAUSES and row["outcome"] != "inside noise"
+            and row["held_out"][0] <= Z_CONSISTENT)
+
+
+def _rate(rows: list[dict]) -> str:
+    right = sum(r["outcome"] == "right" for r in rows)
+    return f"{right} of {len(rows)}" + (f" ({right / len(rows):.0%})" if rows else "")
+
+
 def report(rows: list[dict]) -> str:
     counts = {k: sum(r["outcome"] == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
     effects = [r for r in rows if r["effect"] in causes.CAUSES and r["outcome"] != "inside noise"]
-    right = sum(r["outcome"] == "right" for r in effects)
+    judged = [r for r in effects if not _held_out_quiet(r)]
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
                    [[r["case"], r["effect"] or "(none)", r["floor"],
                      "/".join(f"{w:g}" for w in r["omegas"]), r["verdict"], r["cause"] or "-",
                      f"{r['removed']:.0%}",
                      f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", _recovery(r),
-                     r["outcome"], f"{r['diagnose_s']:.0f}"] for r in rows]).rstrip(), "",
+                     r["outcome"] + (" (held-out quiet)" if _held_out_quiet(r) else ""),
+                     f"{r['diagnose_s']:.0f}"] for r in rows]).rstrip(), "",
              f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
              f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
-             f"causes clear of the noise named right in {right} of {len(effects)}"
-             + (f" ({right / len(effects):.0%})" if effects else "") + ".",
+             f"causes clear of the noise named right in {_rate(effects)}; of those whose "
+             f"held-out command shows a discrepancy (base error above {Z_CONSISTENT:g}), "
+             f"{_rate(judged)}.",
              "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
              + ", ".join(f"{code} for {n}" for code, n in _versions(rows)) + ".",
              f"Machine: {machine()}."]
