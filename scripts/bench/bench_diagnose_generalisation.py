@@ -12,9 +12,11 @@ and its other parameters from their priors (synth.make_dataset(held="prior")),
   as stiff (outside the old prior, which only allowed a stiffer pitch), on carpet.
 
 An outcome per dataset:
-- null: right if ``no-discrepancy``; outside effect: right if ``unexplained``;
-- a cause: ``inside noise`` when the base model's error is already within
-  Z_CONSISTENT (no method can name it; not counted), else right when the named
+- null: right if ``no-discrepancy``;
+- an outside effect or a cause: ``inside noise`` when the base model's error is
+  already within Z_CONSISTENT (the data show nothing to explain; not counted);
+- outside effect: else right if ``unexplained``;
+- a cause: else right when the named
   cause (verdict explained or partly-explained) is the hidden one, wrong when it is
   another, missed when nothing is named.  A cause's dataset whose held-out command
   (the one the verdict is judged on) shows no discrepancy of its own (the base
@@ -89,17 +91,23 @@ def plan(n_datasets: int, first_seed: int) -> list[dict]:
     return cases
 
 
-def outcome(effect: str | None, result: dict) -> str:
-    named = result["cause"] if result["verdict"] in NAMING else None
+def outcome(effect: str | None, verdict: str, cause: str | None, baseline_error: float) -> str:
+    """right / wrong / missed / inside noise (the module docstring says when)."""
+    named = cause if verdict in NAMING else None
     if effect is None:
-        return "right" if result["verdict"] == "no-discrepancy" else "wrong"
-    if effect in OUTSIDE_EFFECTS:
-        return "right" if result["verdict"] == "unexplained" else "wrong"
-    if result["baseline_error_all_runs"] <= Z_CONSISTENT:
+        return "right" if verdict == "no-discrepancy" else "wrong"
+    if baseline_error <= Z_CONSISTENT:
         return "inside noise"
+    if effect in OUTSIDE_EFFECTS:
+        return "right" if verdict == "unexplained" else "wrong"
     if named is None:
         return "missed"
     return "right" if named == effect else "wrong"
+
+
+def _outcome(row: dict) -> str:
+    """A row's outcome under the rules as they are now (rows keep the one they had)."""
+    return outcome(row["effect"], row["verdict"], row["cause"], row["baseline_error"])
 
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
@@ -121,7 +129,8 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "baseline_error": result["baseline_error_all_runs"],
             "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
             "removed": result["gain"]["relative_reduction"],
-            "outcome": outcome(case["effect"], result),
+            "outcome": outcome(case["effect"], result["verdict"], result["cause"],
+                               result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
             # the code that diagnosed it (a resumed run may mix versions: the report says)
             "code": code_fingerprint()[:12]}
@@ -129,7 +138,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
 
 def _recovery(row: dict) -> str:
     """The named cause's main parameter, fitted over hidden, where the name is right."""
-    if row["outcome"] != "right" or row["effect"] not in causes.CAUSES:
+    if _outcome(row) != "right" or row["effect"] not in causes.CAUSES:
         return "-"
     main = causes.get(row["effect"]).main.name
     return (f"{row['parameters'][main]:.3g} / {row['truth'][main]:.3g} "
@@ -143,19 +152,19 @@ def _versions(rows: list[dict]) -> list[tuple[str, int]]:
 
 def _held_out_quiet(row: dict) -> bool:
     """A cause's dataset whose held-out command shows no discrepancy of its own."""
-    return (row["effect"] in causes.CAUSES and row["outcome"] != "inside noise"
+    return (row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
             and row["held_out"][0] <= Z_CONSISTENT)
 
 
 def _rate(rows: list[dict]) -> str:
-    right = sum(r["outcome"] == "right" for r in rows)
+    right = sum(_outcome(r) == "right" for r in rows)
     return f"{right} of {len(rows)}" + (f" ({right / len(rows):.0%})" if rows else "")
 
 
 def report(rows: list[dict]) -> str:
-    counts = {k: sum(r["outcome"] == k for r in rows)
+    counts = {k: sum(_outcome(r) == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
-    effects = [r for r in rows if r["effect"] in causes.CAUSES and r["outcome"] != "inside noise"]
+    effects = [r for r in rows if r["effect"] in causes.CAUSES and _outcome(r) != "inside noise"]
     judged = [r for r in effects if not _held_out_quiet(r)]
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
@@ -163,7 +172,7 @@ def report(rows: list[dict]) -> str:
                      "/".join(f"{w:g}" for w in r["omegas"]), r["verdict"], r["cause"] or "-",
                      f"{r['removed']:.0%}",
                      f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", _recovery(r),
-                     r["outcome"] + (" (held-out quiet)" if _held_out_quiet(r) else ""),
+                     _outcome(r) + (" (held-out quiet)" if _held_out_quiet(r) else ""),
                      f"{r['diagnose_s']:.0f}"] for r in rows]).rstrip(), "",
              f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
              f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
