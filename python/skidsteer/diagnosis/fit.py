@@ -501,13 +501,12 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
     takes (a progress bar's total): the base model on every command; per cause the grid,
     the Brent steps, for a random geometry the other realisations and a second grid, for
     the contenders a design's points, refine_parameters' passes and profile (twice with
-    a mirror), each on
-    the training commands; the held-out commands at each fit's end (main and refined);
-    the pair on every command."""
-    def refining(name):  # refine_parameters: the passes, the final profile
-        n = 1 + len(cause_registry.get(name).held)
-        search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
+    a mirror), each on the training commands; the held-out commands at each fit's end
+    (main and refined); the pair on every command."""
+    def refining(name):  # a design, refine_parameters: the passes, the final profile
         cause = cause_registry.get(name)
+        n = 1 + len(cause.held)
+        search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
         design = len(cause.design()) if cause.design is not None else 0
         return 0 if n == 1 else design + search + (1 + search if cause.mirror else 0)
 

@@ -26,8 +26,7 @@ from skidsteer.data.recording import write_run
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import model_factory
 from skidsteer.robot import Setup, resolve, roles
-from skidsteer.simulation.drive import DriveGeometry
-from skidsteer.simulation.run import runs_from_rest, settle
+from skidsteer.simulation.run import run_from_settled, settle
 from skidsteer.simulation.sensor_chain import SensorChain
 
 # ------------------------------------------------------------ outside effects
@@ -149,16 +148,12 @@ def make_dataset(out_dir, effect: str | None = None, params: Mapping[str, float]
     offsets = chain.draw_offsets(rng)
     setup = resolve(setup)
     m = model_factory(edit=edit, timestep=timestep)(setup)
-    drive = DriveGeometry.from_model(m)
-    nstep = int(round(duration_s / m.opt.timestep))
     infos = []
     for omega in omegas:
         seeds = [zlib.crc32(repr((seed, float(omega), k)).encode()) for k in range(trials)]
-        controls = drive.ramp(m, 0.0, float(omega), nstep)[None]
-
         def trial(k):  # its own start (a seed apart from perturbed's and the chain's)
             start = trial_start(m, np.random.default_rng([seeds[k], 1]))
-            return runs_from_rest(m, controls, nthread=1, seeds=[seeds[k]], settled=start)[0]
+            return run_from_settled(m, start, 0.0, float(omega), duration_s, seeds[k])
 
         with ThreadPoolExecutor(max_workers=max(1, nthread)) as pool:
             runs = list(pool.map(trial, range(trials)))
