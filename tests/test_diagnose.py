@@ -31,7 +31,8 @@ from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
                                             simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.fit import REFINE_STEPS, _interval, fit_every_parameter, refine_parameters
+from skidsteer.diagnosis.fit import (REFINE_CONTENDERS, REFINE_STEPS, _interval, contenders,
+                                     fit_every_parameter, refine_parameters)
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, trial_start, truth_edit
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
@@ -297,6 +298,13 @@ def test_a_frame_fit_starts_from_the_best_of_a_stiffness_design():
     _assert_within_the_fine_step(min(surface.seen, key=error), truth)
 
 
+def test_a_cause_whose_design_beats_its_main_fit_is_refined_whatever_its_rank():
+    fits = [_fit(name, held) for name, held in (("a", 1.5), ("b", 1.8), ("c", 2.0), ("d", 2.2))]
+    assert contenders(fits) == list(range(REFINE_CONTENDERS))
+    fits[3].design_better = True
+    assert contenders(fits) == [*range(REFINE_CONTENDERS), 3]
+
+
 def test_an_interval_open_on_one_side_reaches_the_prior():
     p = causes.get("mast_compliance").held[1]  # pitch_stiffness_ratio, 0.1-100
     # the error rises to the right only: the left side is not bounded by the data
@@ -384,6 +392,18 @@ def test_verdict_rules():
         == "unexplained"
     result, named, _ = diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)], noise=1.0)
     assert result == "explained" and named.cause == "a"
+    # the runner-up closes more than 3/4 of a large gap ((5.5^2 - 2.5^2) / (5.5^2 - 1.6^2)
+    # = 87 %), but the held-out runs tell the two apart: the best is consistent with them
+    # and the runner-up is not
+    result, named, _ = diagnosis.verdict(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5)], noise=1.0)
+    assert result == "explained" and named.cause == "a"
+    # ... not when a third candidate is consistent with them too (a worse score: more
+    # parameters)
+    assert diagnosis.verdict(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5), _fit("c", 1.9, 7.0)],
+                             noise=1.0)[0] == "unexplained"
+    # ... nor when both are consistent and close (the 3/4 rule decides: 0.56 < 0.75)
+    assert diagnosis.verdict(2.5, 2.5, [_fit("a", 1.8), _fit("b", 1.95)], noise=1.0)[0] \
+        == "unexplained"
 
 
 def test_gain_counts_the_discrepancy_beyond_the_trial_noise():

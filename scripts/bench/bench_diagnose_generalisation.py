@@ -45,6 +45,7 @@ import argparse
 import json
 import sys
 import time
+from types import SimpleNamespace
 from collections import Counter
 from pathlib import Path
 
@@ -54,7 +55,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
-from skidsteer.diagnosis import Z_CONSISTENT, causes  # noqa: E402
+from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
@@ -91,23 +92,36 @@ def plan(n_datasets: int, first_seed: int) -> list[dict]:
     return cases
 
 
-def outcome(effect: str | None, verdict: str, cause: str | None, baseline_error: float) -> str:
-    """right / wrong / missed / inside noise (the module docstring says when)."""
-    named = cause if verdict in NAMING else None
+def outcome(effect: str | None, said: str, cause: str | None, baseline_error: float) -> str:
+    """right / wrong / missed / inside noise (the module docstring says when); said: the
+    verdict."""
+    named = cause if said in NAMING else None
     if effect is None:
-        return "right" if verdict == "no-discrepancy" else "wrong"
+        return "right" if said == "no-discrepancy" else "wrong"
     if baseline_error <= Z_CONSISTENT:
         return "inside noise"
     if effect in OUTSIDE_EFFECTS:
-        return "right" if verdict == "unexplained" else "wrong"
+        return "right" if said == "unexplained" else "wrong"
     if named is None:
         return "missed"
     return "right" if named == effect else "wrong"
 
 
+def _verdict(row: dict) -> tuple[str, str | None]:
+    """(verdict, named cause) under the verdict rules as they are now: a row keeps what
+    they read (the base model's errors, the trial noise, every fit's errors and score),
+    so a rule changed later is judged on every row without simulating again.  Rows
+    written before they kept it (no "ranking") give the verdict they had."""
+    if "ranking" not in row:
+        return row["verdict"], row["cause"]
+    fits = [SimpleNamespace(**f) for f in row["ranking"]]
+    result, named, _ = verdict(row["baseline_error"], row["held_out"][0], fits, row["noise"])
+    return result, named.cause if named is not None else None
+
+
 def _outcome(row: dict) -> str:
     """A row's outcome under the rules as they are now (rows keep the one they had)."""
-    return outcome(row["effect"], row["verdict"], row["cause"], row["baseline_error"])
+    return outcome(row["effect"], *_verdict(row), row["baseline_error"])
 
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
@@ -129,6 +143,11 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "baseline_error": result["baseline_error_all_runs"],
             "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
             "removed": result["gain"]["relative_reduction"],
+            # what the verdict rules read (_verdict judges the row again by the rules of
+            # the day)
+            "noise": result["gain"]["noise_error"],
+            "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
+                                           "fitted")} for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],
                                result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
@@ -156,20 +175,34 @@ def _held_out_quiet(row: dict) -> bool:
             and row["held_out"][0] <= Z_CONSISTENT)
 
 
+def _verdict_shown(row: dict) -> str:
+    """The verdict now, and the one the row was written with where they differ."""
+    now = _verdict(row)[0]
+    return now if now == row["verdict"] else f"{now} (was {row['verdict']})"
+
+
 def _rate(rows: list[dict]) -> str:
     right = sum(_outcome(r) == "right" for r in rows)
     return f"{right} of {len(rows)}" + (f" ({right / len(rows):.0%})" if rows else "")
 
 
+def _clear(rows: list[dict], code: str | None = None) -> list[dict]:
+    """The causes' datasets whose effect is clear of the trials' noise (of one code
+    version, when given)."""
+    return [r for r in rows if r["effect"] in causes.CAUSES and _outcome(r) != "inside noise"
+            and code in (None, r.get("code", "not recorded"))]
+
+
 def report(rows: list[dict]) -> str:
     counts = {k: sum(_outcome(r) == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
-    effects = [r for r in rows if r["effect"] in causes.CAUSES and _outcome(r) != "inside noise"]
+    effects = _clear(rows)
     judged = [r for r in effects if not _held_out_quiet(r)]
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
                    [[r["case"], r["effect"] or "(none)", r["floor"],
-                     "/".join(f"{w:g}" for w in r["omegas"]), r["verdict"], r["cause"] or "-",
+                     "/".join(f"{w:g}" for w in r["omegas"]), _verdict_shown(r),
+                     _verdict(r)[1] or "-",
                      f"{r['removed']:.0%}",
                      f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", _recovery(r),
                      _outcome(r) + (" (held-out quiet)" if _held_out_quiet(r) else ""),
@@ -180,7 +213,8 @@ def report(rows: list[dict]) -> str:
              f"held-out command shows a discrepancy (base error above {Z_CONSISTENT:g}), "
              f"{_rate(judged)}.",
              "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
-             + ", ".join(f"{code} for {n}" for code, n in _versions(rows)) + ".",
+             + "; ".join(f"{code} for {n} ({_rate(_clear(rows, code))} clear causes named "
+                         "right)" for code, n in _versions(rows)) + ".",
              f"Machine: {machine()}."]
     return "\n".join(lines)
 
@@ -237,11 +271,11 @@ def main(argv=None) -> int:
     if args.markdown:
         args.markdown.write_text(
             "# diagnose on fresh draws (issue 21)\n\nGenerated by `python "
-            "scripts/bench/bench_diagnose_generalisation.py "
-            f"--datasets {args.datasets} --first-seed {args.first_seed} --trials {args.trials} "
-            f"--duration {args.duration:g} --out DIR --results {results} --markdown "
-            f"{args.markdown}`; what each "
-            "column means is in the script's docstring.\n\n" + text + "\n")
+            "scripts/bench/bench_diagnose_generalisation.py --out DIR --results "
+            f"{results} --markdown {args.markdown}` (with `--datasets N --first-seed S` for "
+            "the draws S to S+N-1 and `--report` to tabulate the rows only) from every row "
+            f"in {results}, {args.trials} trials of {args.duration:g} s per command; what "
+            "each column means is in the script's docstring.\n\n" + text + "\n")
     return 0
 
 
