@@ -147,7 +147,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # the day)
             "noise": result["gain"]["noise_error"],
             "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
-                                           "fitted")} for f in result["ranking"]],
+                                           "fitted", "parameters")} for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],
                                result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
