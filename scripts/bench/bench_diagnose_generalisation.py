@@ -45,9 +45,9 @@ import argparse
 import json
 import sys
 import time
-from types import SimpleNamespace
 from collections import Counter
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 

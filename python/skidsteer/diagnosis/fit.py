@@ -314,18 +314,25 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
         # the design's points too (after the result: they are not on the main parameter's
         # line), so that a cause the one-dimensional fit misses is still refined
         design = evaluate([(values, realisation) for values in _design_points(cause)])
-        n_train, k = len(train), 1 + len(cause.held)
-        fit.design_better = bool(
-            min(design) ** 2 + PARAMETER_PENALTY * k / n_train
-            < fit.train_error ** 2 + PARAMETER_PENALTY / n_train)
+        fit.design_better = bool(_score(min(design), 1 + len(cause.held), len(train))
+                                 < _score(fit.train_error, 1, len(train)))
     return fit
 
 
+def _score(error: float, n_params: float, n_train: int) -> float:
+    """An error squared plus PARAMETER_PENALTY per fitted parameter (AIC)."""
+    return error ** 2 + PARAMETER_PENALTY * n_params / n_train
+
+
+def _clipped(cause, values: dict[str, float]) -> dict[str, float]:
+    """A cause's parameter set with each parameter clipped to its prior."""
+    return {p.name: float(np.clip(values[p.name], p.low, p.high))
+            for p in (cause.main, *cause.held)}
+
+
 def _design_points(cause) -> list[dict[str, float]]:
-    """Cause.design's points, each parameter clipped to its prior."""
-    parameters = [cause.main, *cause.held]
-    return [{p.name: float(np.clip(values[p.name], p.low, p.high)) for p in parameters}
-            for values in cause.design()]
+    """Cause.design's points, clipped to the priors."""
+    return [_clipped(cause, values) for values in cause.design()]
 
 
 def refine_fit(fit: Fit, held: np.ndarray) -> Fit:
@@ -354,7 +361,7 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
                  for p in fitted}
     n_params = len(fitted) + (np.log(REALISATIONS) if cause.random_realisation else 0.0)
     return Fit(cause.name, params, cause.main.name, intervals[cause.main.name], train_error,
-               held_error, held_error ** 2 + PARAMETER_PENALTY * n_params / len(train), sim,
+               held_error, _score(held_error, n_params, len(train)), sim,
                evaluate.profile(cause.main.name, params, realisation),
                realisation if cause.random_realisation else None,
                evaluate.factory(params, realisation), intervals, evaluator=evaluate)
@@ -373,10 +380,6 @@ def fit_every_parameter(evaluate, cause, start: dict[str, float], realisation: i
     (322, 0.5x) lies in the truth's basin (training error 1.65 at 250, 0.5x and 1.60
     at 400, 0.5x against 2.03 at 161, 2x; measured on its training runs)."""
     parameters = [cause.main, *cause.held]
-
-    def clipped(values):
-        return {p.name: float(np.clip(values[p.name], p.low, p.high)) for p in parameters}
-
     if cause.design is not None:
         points = _design_points(cause)
         errors = evaluate([(values, realisation) for values in points])
@@ -386,7 +389,7 @@ def fit_every_parameter(evaluate, cause, start: dict[str, float], realisation: i
     if cause.mirror is None:
         return
     best, error, _ = evaluate.best(realisation)
-    image = clipped(cause.mirror(best))
+    image = _clipped(cause, cause.mirror(best))
     if evaluate([(image, realisation)])[0] < error:
         refine_parameters(evaluate, parameters, image, realisation)
 
@@ -538,7 +541,7 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
     held_error = comparison.error(sim.features, held, bias_runs=train)
     n_params = len(first.fitted) + len(second.fitted) + sum(
         np.log(REALISATIONS) for f in (first, second) if f.realisation is not None)
-    score = held_error ** 2 + PARAMETER_PENALTY * n_params / len(train)
+    score = _score(held_error, n_params, len(train))
     return {"causes": [first.cause, second.cause],
             "parameters": {first.cause: first.parameters, second.cause: second.parameters},
             "train_error": comparison.error(sim.features, train),
@@ -554,21 +557,19 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
     to refine, and every cause with a design) refine_parameters' passes and profile
     (twice with a mirror), each on the training commands; the held-out commands at each
     fit's end (main and refined); the pair on every command."""
-    def refining(name):  # refine_parameters: the passes, the final profile
-        cause = cause_registry.get(name)
+    def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
         return 0 if n == 1 else search + (1 + search if cause.mirror else 0)
 
-    def designed(name):
-        return cause_registry.get(name).design is not None
-
-    by_cost = sorted(names, key=refining, reverse=True)
-    refined = set(by_cost[:REFINE_CONTENDERS]) | set(filter(designed, names))
-    searched = sum(GRID_POINTS + REFINE_ITERATIONS + (
-        REALISATIONS - 1 + GRID_POINTS if cause_registry.get(name).random_realisation else 0)
-        + (len(cause_registry.get(name).design()) if designed(name) else 0)
-        for name in names) + sum(map(refining, refined))
+    candidates = [cause_registry.get(name) for name in names]
+    by_cost = sorted(candidates, key=refining, reverse=True)
+    refined = {c.name for c in by_cost[:REFINE_CONTENDERS]} | {
+        c.name for c in candidates if c.design is not None}
+    searched = sum(GRID_POINTS + REFINE_ITERATIONS
+                   + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
+                   + (len(c.design()) if c.design is not None else 0)
+                   + (refining(c) if c.name in refined else 0) for c in candidates)
     train, _ = split(observed)
     n_groups = len(observed.groups)
     n_trained = len(set(observed.run_group[train].tolist()))
