@@ -31,15 +31,16 @@ from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
                                             simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.fit import (REFINE_CONTENDERS, REFINE_STEPS, _interval, contenders,
-                                     fit_every_parameter, refine_parameters)
-from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, trial_start, truth_edit
+from skidsteer.diagnosis.fit import (REFINE_CONTENDERS, REFINE_STEPS, STARTS, _interval,
+                                     contenders, fit_every_parameter, median_error,
+                                     refine_parameters)
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.robot import Setup, load_model, roles_of
-from skidsteer.simulation.run import FULLPHYSICS, settle
+from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
 from hidden_effects import (DURATION_S, SECOND_MODULE, SEED, check_named, check_not_wrong,
@@ -361,6 +362,61 @@ def test_repeat_trials_start_where_a_swivel_left_the_robot():
     assert abs(np.angle(np.exp(1j * (wheel_a - wheel_b)))) > 0.01
 
 
+def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
+    # the verdict's errors are medians over STARTS simulated starts: start 0 is the robot
+    # at rest as built (what one simulation always was), start k > 0 a repeat-trial start
+    # of its own; the cache must not hand one start's run out for another's
+    from skidsteer.data.dataset import Group
+    from skidsteer.diagnosis.comparison import model_factory, simulate_groups, start_state
+    from skidsteer.simulation.cache import SimulationCache
+
+    m = load_model()
+    turned = mujoco.MjData(m)
+    mujoco.mj_setState(m, turned, start_state(m, 1, settle_s=0.5), FULLPHYSICS)
+    at_rest = mujoco.MjData(m)
+    mujoco.mj_setState(m, at_rest, start_state(m, 0, settle_s=0.5), FULLPHYSICS)
+    assert np.abs(turned.qpos[:7] - at_rest.qpos[:7]).max() > 0.01  # another yaw at least
+    factory, group = model_factory(), Group(0.0, 30.0, Setup())
+    cache = SimulationCache(tmp_path)
+    default, first = simulate_groups([(factory, [group])] * 2, 8.0, starts=[0, 1], cache=cache)
+    alone = simulate_groups([(factory, [group])], 8.0)[0]
+    assert np.array_equal(default.features, alone.features, equal_nan=True)  # start 0 is the default
+    assert not np.array_equal(default.features, first.features, equal_nan=True)
+    stored = simulate_groups([(factory, [group])] * 2, 8.0, starts=[1, 0], cache=cache,
+                             signals=False)
+    assert cache.stores == 2 and cache.hits == 2
+    assert np.array_equal(stored[0].features, first.features, equal_nan=True)
+    assert np.array_equal(stored[1].features, default.features, equal_nan=True)
+    with pytest.raises(ValueError, match="2 starts for 1 jobs"):
+        simulate_groups([(factory, [group])], 8.0, starts=[0, 1])
+
+
+def test_the_error_over_starts_is_not_moved_by_one_start_in_another_regime():
+    # issue 21's draw-1071: from one of five starts a simulation lands in a rare regime
+    # 14 trial spreads away in two bands; the error over starts is their median, so one
+    # such start of STARTS (and, with 5, two) leaves it where the others put it
+    from skidsteer.diagnosis.comparison import Simulated
+
+    rng = np.random.default_rng(4)
+    measured = np.exp(rng.normal(-8, 0.05, (6, N_POWER + 1)))
+    measured[:, -1] = 0.01
+    comp = Comparison(_observed(measured, [0, 0, 0, 1, 1, 1]))
+    typical = measured[[0, 3]] - np.r_[comp.floor, 0.0]
+    typical[:, :N_POWER] = np.maximum(typical[:, :N_POWER], 1e-12)
+    runs = np.arange(6)
+
+    def sim(features):
+        return Simulated([None] * 2, [None] * 2, [0.0] * 2, features)
+
+    rare = typical.copy()
+    rare[:, :4] *= 10.0 ** 1.4  # 1.4 decades up in four bands: 14 trial spreads of 0.1
+    usual = [sim(typical * (1 + 0.01 * k)) for k in range(STARTS - 2)]
+    assert STARTS >= 5
+    with_rare = median_error(comp, [sim(rare), sim(rare), *usual], runs)
+    assert with_rare in [comp.error(u.features, runs) for u in usual]
+    assert comp.error(rare, runs) > 3 * with_rare  # what one start alone would have said
+
+
 # ------------------------------------------------------------------ verdict rules
 
 def _fit(name, held, score=None):
@@ -538,9 +594,10 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     from skidsteer.simulation.cache import CACHE_DIR
 
     data, whole, whole_result = written
-    # the base model on the 3 commands, 9 fit points (5 grid, 4 Brent) on the 2 training
-    # commands, the fit's end on the held-out one
-    assert whole_result["simulations"] == {"simulated": 3 + 9 * 2 + 1, "reused": 0,
+    # the base model on the 3 commands from STARTS starts, 9 fit points (5 grid, 4 Brent)
+    # on the 2 training commands, the fit's end on the held-out one from STARTS starts
+    simulated = 3 * STARTS + 9 * 2 + STARTS
+    assert whole_result["simulations"] == {"simulated": simulated, "reused": 0,
                                            "cache": str(whole / CACHE_DIR)}
     out = tmp_path / "out"
     args = ["diagnose", str(data), "--out", str(out), "--cause", "slip_lambda_max",
@@ -555,7 +612,7 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     process.send_signal(signal.SIGKILL)
     process.wait()
     stored = len(list((out / CACHE_DIR).glob("*.npz")))
-    assert 9 <= stored < 22, stored
+    assert 9 <= stored < simulated, stored
     assert not (out / "diagnosis.json").exists()
     assert "unfinished skidsteer diagnose" in (out / INCOMPLETE_MARKER).read_text()
 
@@ -567,7 +624,8 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     # again (the report plots its signals, which are not stored), and so is the
     # fitted model if it came from the store
     assert resumed["simulations"]["reused"] == stored - 3
-    assert resumed["simulations"]["simulated"] + resumed["simulations"]["reused"] in (22, 25)
+    assert resumed["simulations"]["simulated"] + resumed["simulations"]["reused"] in (
+        simulated, simulated + 3)
     assert not (out / INCOMPLETE_MARKER).exists()
     assert not list(out.rglob(".*.part*"))
     for name in ("extended_model.xml", "figures/spectra.png", "figures/features_vs_omega.png"):

@@ -24,7 +24,7 @@ from skidsteer.robot import Setup, load_model, roles
 from skidsteer.simulation.backends import LocalBackend
 from skidsteer.simulation.cache import model_digest
 from skidsteer.simulation.drive import DriveGeometry
-from skidsteer.simulation.run import run_from_settled, settle
+from skidsteer.simulation.run import run_from_settled, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
 # The smallest spread a log10 band power is credited with: a Welch estimate of a
@@ -36,6 +36,7 @@ LOG_POWER_RESOLUTION = 0.1
 # 2 omega d_omega |x_a| = 0.004 m/s^2; a smaller difference is not a yaw-rate finding.
 CENTRIPETAL_RESOLUTION_M_S2 = 0.004
 SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds this
+START_SEED = 7  # the simulated starts' draws (start_state), apart from synth's trials (1)
 
 
 def _side_speeds(m: mujoco.MjModel, v_mps: float, omega_deg_s: float) -> np.ndarray:
@@ -179,14 +180,26 @@ class Simulated:
 ModelFactory = Callable[[Setup], mujoco.MjModel]
 
 
+def start_state(m: mujoco.MjModel, start: int, settle_s: float = 2.0) -> np.ndarray:
+    """A simulation's settled start: 0, the robot at rest as built; k > 0, trial_start's
+    draw k (another yaw and wheel angle, as a repeat trial starts; seeded apart from
+    any dataset's trials by START_SEED)."""
+    if start == 0:
+        return settle(m, mujoco.MjData(m), settle_s)
+    return trial_start(m, np.random.default_rng([START_SEED, int(start)]), settle_s)
+
+
 def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: float,
                     chain: SensorChain = SensorChain(), settle_s: float = 2.0,
                     nthread: int = 2, progress: Callable[[int], None] | None = None,
-                    backend=None, cache=None, signals: bool = True) -> list[Simulated]:
-    """For each (model factory, groups) job, each group simulated once from rest.
+                    backend=None, cache=None, signals: bool = True,
+                    starts: Sequence[int] | None = None) -> list[Simulated]:
+    """For each (model factory, groups) job, each group simulated once from a settled
+    start: the job's entry of starts (start_state; default 0, at rest).
 
-    Models are built and settled once per (job, setup) here; the (model, group)
-    runs are `simulate_group` tasks on the backend (default: nthread threads).
+    Models are built once per (factory, setup) and settled once per start here; the
+    (model, group) runs are `simulate_group` tasks on the backend (default: nthread
+    threads).
 
     cache: a simulation.cache.SimulationCache; every finished run is stored in it.
     signals=False lets a stored run stand in for a simulation: its features and
@@ -195,12 +208,16 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
     backend = backend or LocalBackend(nthread)
     results = [Simulated([None] * len(g), [None] * len(g), [0.0] * len(g),
                          np.zeros((len(g), N_POWER + 1)), [()] * len(g)) for _, g in jobs]
-    shared: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, settled state)
-    built: dict[tuple[int, Setup], tuple] = {}  # (job, setup) -> (model, its digest)
+    starts = [0] * len(jobs) if starts is None else [int(s) for s in starts]
+    if len(starts) != len(jobs):
+        raise ValueError(f"simulate_groups: {len(starts)} starts for {len(jobs)} jobs")
+    # (factory, setup) -> (model, its digest); (factory, setup, start) -> (model, state)
+    built: dict[tuple[int, Setup], tuple] = {}
+    shared: dict[tuple[int, Setup, int], tuple] = {}
     tasks, where, keys = [], [], []
-    for j, (factory, groups) in enumerate(jobs):
+    for j, ((factory, groups), start) in enumerate(zip(jobs, starts)):
         for k, g in enumerate(groups):
-            key = (j, g.setup)
+            key = (id(factory), g.setup)
             if key not in built:
                 m = factory(g.setup)
                 built[key] = (m, model_digest(m) if cache is not None else None)
@@ -208,7 +225,7 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
             entry_key = None
             if cache is not None:
                 entry_key = cache.key(digest, settle_s, g.v_mps, g.omega_deg_s, duration_s,
-                                      chain)
+                                      chain, *((start,) if start else ()))
                 stored = None if signals else cache.get(entry_key)
                 if stored is not None:
                     (results[j].features[k], results[j].mean_yaw_rate_deg_s[k],
@@ -216,10 +233,10 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
                     if progress:
                         progress(1)
                     continue
-            if key not in shared:
-                shared[key] = (backend.share(m),
-                               backend.share(settle(m, mujoco.MjData(m), settle_s)))
-            tasks.append((*shared[key], g.v_mps, g.omega_deg_s, duration_s, chain))
+            if (*key, start) not in shared:
+                shared[(*key, start)] = (backend.share(m),
+                                         backend.share(start_state(m, start, settle_s)))
+            tasks.append((*shared[(*key, start)], g.v_mps, g.omega_deg_s, duration_s, chain))
             where.append((j, k))
             keys.append(entry_key)
     for (j, k), entry_key, (time_s, accel, yaw, rates) in zip(

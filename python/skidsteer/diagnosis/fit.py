@@ -23,6 +23,9 @@
 5. Each fit is scored on the held-out runs, plus an AIC-style penalty per fitted
    parameter (and ln(REALISATIONS) for a chosen realisation); the two best are
    also simulated together (fit_pair); the verdict follows VERDICT RULES below.
+   The errors the verdict reads (the base model's, the held-out ones) are medians
+   over STARTS starts of each command: one simulation is one draw of the model's
+   run-to-run scatter, as one trial is of the robot's.
 
 ``diagnose_observed`` does all of it on measured runs already reduced to
 features; reports.diagnosis reads a dataset into it and writes the outputs.
@@ -84,6 +87,19 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 SEPARATION = 0.25
 PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs); choosing one of N
 # realisations counts as ln N parameters (its description length in nats)
+# The errors the verdict reads (the base model's, every fit's held-out error, the pair's)
+# are the median over STARTS simulations of each command, from comparison.start_state
+# 0..STARTS-1: the robot at rest, then repeat-trial starts (another yaw and wheel angle).
+# One simulation is one draw of the model's run-to-run scatter, which on a stick-slip
+# floor is not small: issue 21's draw-1071 (a 28 Hz sensor mount on carpet, held-out
+# 20 deg/s; damping 0.034) scored 3.58 at 27.98 Hz and 1.52 at 27.99 from rest, and at 27.98 Hz
+# 3.58, 1.59, 1.52, 2.01, 1.53 over five starts: a rare regime of the 6.5-9 Hz and
+# 23-31 Hz steady bands, 14 trial spreads away.  The median keeps a simulation's scale
+# ("one more trial", ~1 to 1.4 for a right model: Z_CONSISTENT holds) and is not moved
+# by one start in two regimes (assumed: 5, the fewest for which two rare starts do not
+# move it; measured on draw-1071 after seeing it, not tuned on the benchmark).  The
+# search (the training errors) reads one start: STARTS times the simulations otherwise.
+STARTS = 5
 
 
 @dataclasses.dataclass
@@ -222,8 +238,9 @@ class _Evaluations:
         self.duration_s, self.timestep, self.chain = duration_s, timestep, chain
         self.backend, self.progress, self.stored = backend, progress, stored
         self.done: dict[tuple, tuple[float, Simulated]] = {}
-        self.trained = sorted({int(g) for g in comparison.observed.run_group[train]})
+        self.trained = _groups_of(comparison, train)
         self.completed: set[tuple] = set()  # the points simulated on every command
+        self.held_errors: dict[tuple, float] = {}  # a point's held-out error (held_out_error)
 
     def factory(self, params: dict[str, float], realisation: int):
         return model_factory(self.cause.edit(params, realisation), self.timestep)
@@ -254,6 +271,18 @@ class _Evaluations:
                 self.done[key] = (error, sim)
             self.completed.add(key)
         return sim
+
+    def held_out_error(self, params: dict[str, float], realisation: int,
+                       held: np.ndarray) -> float:
+        """The point's error on the held-out runs, the median over STARTS starts."""
+        key = (_parameter_key(params), int(realisation))
+        if key not in self.held_errors:
+            sims = over_starts(self.complete(params, realisation),
+                               self.factory(params, realisation), self.groups,
+                               _groups_of(self.comparison, held), self.duration_s, self.chain,
+                               self.backend, self.progress, self.stored)
+            self.held_errors[key] = median_error(self.comparison, sims, held, self.train)
+        return self.held_errors[key]
 
     def best(self, realisation: int) -> tuple[dict[str, float], float, Simulated]:
         key = min((k for k in self.done if k[1] == realisation), key=lambda k: self.done[k][0])
@@ -319,6 +348,28 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
     return fit
 
 
+def _groups_of(comparison: Comparison, runs: np.ndarray) -> list[int]:
+    """The groups (indices) the runs belong to."""
+    return sorted({int(g) for g in comparison.observed.run_group[runs]})
+
+
+def over_starts(sim: Simulated, factory, groups: list[Group], which: list[int],
+                duration_s: float, chain: SensorChain, backend, progress, cache
+                ) -> list[Simulated]:
+    """sim (every group from start 0) and, for each start 1..STARTS-1, sim with the
+    groups `which` simulated again from that start (comparison.start_state)."""
+    jobs = [(factory, [groups[i] for i in which])] * (STARTS - 1)
+    parts = simulate_groups(jobs, duration_s, chain, backend=backend, progress=progress,
+                            cache=cache, signals=False, starts=range(1, STARTS))
+    return [sim, *(_placed(part, which, sim) for part in parts)]
+
+
+def median_error(comparison: Comparison, sims: list[Simulated], runs: np.ndarray,
+                 bias_runs: np.ndarray | None = None) -> float:
+    """Comparison.error on `runs`, the median over the simulations of several starts."""
+    return float(np.median([comparison.error(s.features, runs, bias_runs) for s in sims]))
+
+
 def _score(error: float, n_params: float, n_train: int) -> float:
     """An error squared plus PARAMETER_PENALTY per fitted parameter (AIC)."""
     return error ** 2 + PARAMETER_PENALTY * n_params / n_train
@@ -356,7 +407,7 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     train = evaluate.train
     params, train_error, _ = evaluate.best(realisation)
     sim = evaluate.complete(params, realisation)
-    held_error = evaluate.comparison.error(sim.features, held, bias_runs=train)
+    held_error = evaluate.held_out_error(params, realisation, held)
     intervals = {p.name: _interval(evaluate.profile(p.name, params, realisation), len(train), p)
                  for p in fitted}
     n_params = len(fitted) + (np.log(REALISATIONS) if cause.random_realisation else 0.0)
@@ -530,15 +581,18 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
         edit_a(spec)
         edit_b(spec)
 
+    factory = model_factory(both, evaluate.timestep)
     try:
-        sim = simulate_groups([(model_factory(both, evaluate.timestep), evaluate.groups)],
-                              evaluate.duration_s, evaluate.chain, backend=evaluate.backend,
-                              progress=evaluate.progress, cache=evaluate.stored,
-                              signals=False)[0]
+        sim = simulate_groups([(factory, evaluate.groups)], evaluate.duration_s, evaluate.chain,
+                              backend=evaluate.backend, progress=evaluate.progress,
+                              cache=evaluate.stored, signals=False)[0]
     except (ValueError, RuntimeError):
         return None
     comparison, train = evaluate.comparison, evaluate.train
-    held_error = comparison.error(sim.features, held, bias_runs=train)
+    sims = over_starts(sim, factory, evaluate.groups, _groups_of(comparison, held),
+                       evaluate.duration_s, evaluate.chain, evaluate.backend,
+                       evaluate.progress, evaluate.stored)
+    held_error = median_error(comparison, sims, held, train)
     n_params = len(first.fitted) + len(second.fitted) + sum(
         np.log(REALISATIONS) for f in (first, second) if f.realisation is not None)
     score = _score(held_error, n_params, len(train))
@@ -556,7 +610,8 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
     a cause with a design its points; for the contenders (the REFINE_CONTENDERS costliest
     to refine, and every cause with a design) refine_parameters' passes and profile
     (twice with a mirror), each on the training commands; the held-out commands at each
-    fit's end (main and refined); the pair on every command."""
+    fit's end (main and refined); the pair on every command; and STARTS - 1 more starts
+    of the base model's every command and of each end's and the pair's held-out ones."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
@@ -570,11 +625,13 @@ def simulations_planned(names: list[str], observed: Observed) -> int:
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
                    + (refining(c) if c.name in refined else 0) for c in candidates)
-    train, _ = split(observed)
+    train, held = split(observed)
     n_groups = len(observed.groups)
     n_trained = len(set(observed.run_group[train].tolist()))
+    n_held = len(set(observed.run_group[held].tolist()))
     ends = len(names) + len(refined)
-    return 2 * n_groups + n_trained * searched + (n_groups - n_trained) * ends
+    return (2 * n_groups + n_trained * searched + (n_groups - n_trained) * ends
+            + (STARTS - 1) * (n_groups + n_held * (ends + 1)))
 
 
 @dataclasses.dataclass
@@ -629,7 +686,8 @@ class Diagnosis:
                         for f in self.fits],
             "gain": {
                 "metric": "held-out RMS z-score of the spectral features (start-up and steady "
-                          "band powers per axis, centripetal mean) against the trials' spread; "
+                          "band powers per axis, centripetal mean) against the trials' spread, "
+                          f"the median over {STARTS} simulated starts; "
                           "relative_reduction is the fraction of its square in excess of the "
                           "trial noise (noise_error^2) that the extended model removes",
                 "baseline_error": self.base_held,
@@ -680,7 +738,8 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     train, held = split(observed)
     all_runs = np.arange(len(observed.run_group))
     names = candidates or sorted(cause_registry.CAUSES)
-    base = simulate_groups([(model_factory(timestep=timestep), groups)], observed.duration_s,
+    base_model = model_factory(timestep=timestep)
+    base = simulate_groups([(base_model, groups)], observed.duration_s,
                            chain, backend=backend, progress=progress, cache=cache,
                            signals=signals)[0]
     # the records carry no wheel speeds: their wheel orders are read at the base model's
@@ -688,8 +747,10 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     # are read at their own
     observed = observed.with_wheel_rates(base.wheel_rates_hz)
     comparison = Comparison(observed)
-    base_error = comparison.error(base.features, all_runs)
-    base_held = comparison.error(base.features, held, bias_runs=train)
+    base_starts = over_starts(base, base_model, groups, list(range(len(groups))),
+                              observed.duration_s, chain, backend, progress, cache)
+    base_error = median_error(comparison, base_starts, all_runs)
+    base_held = median_error(comparison, base_starts, held, train)
     fits, not_applicable = [], []
     if base_error > Z_CONSISTENT:
         def fit(name):

@@ -3,7 +3,7 @@
 The truth is our model plus at most one effect, a candidate cause
 (diagnosis.causes) or an effect outside them (OUTSIDE_EFFECTS), with seeded
 parameters.  Each command is run ``trials`` times, each trial from where a previous
-swivel left the robot (trial_start) with its tires' residual deflections
+swivel left the robot (simulation.run.trial_start) with its tires' residual deflections
 (simulation.perturbed), and recorded through sensor_chain.SensorChain.record:
 the sensor's bandwidth, noise, 60 Hz hum, one zero-g offset error per axis for
 the whole dataset, volts in LabVIEW xlsx files.  Nothing in the dataset names
@@ -26,7 +26,7 @@ from skidsteer.data.recording import write_run
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import model_factory
 from skidsteer.robot import Setup, resolve, roles
-from skidsteer.simulation.run import run_from_settled, settle
+from skidsteer.simulation.run import run_from_settled, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
 # ------------------------------------------------------------ outside effects
@@ -63,37 +63,6 @@ EFFECTS = (None, *causes.CAUSES, *OUTSIDE_EFFECTS)
 
 
 # ------------------------------------------------------------ trials
-
-def trial_start(m: mujoco.MjModel, rng: np.random.Generator, settle_s: float = 2.0
-                ) -> np.ndarray:
-    """A repeat trial's settled start state: where a previous swivel left the robot.
-
-    A swivel turns the robot in place by a yaw and its wheels by a number of turns
-    that is not whole, so a real dataset's trials start at a yaw and at wheel angles
-    nobody chose: here both are uniform in [0, 2 pi), the left wheels turned by minus
-    the angle of the right ones (a swivel turns the sides opposite ways, and the front
-    and rear wheel of a side alike, so the wheels' relative phases are kept).  On a
-    flat floor with round wheels this changes nothing; on an uneven floor the wheels
-    stand on other spots, and out-of-round wheels start at other phases, so the
-    trials' spread shows how much of a start-up depends on them (a run-out's start-up
-    moves by 2-17 trial spreads with the wheels' angle alone, measured on issue 21's
-    draw-1006)."""
-    d = mujoco.MjData(m)
-    yaw, wheel_angle = rng.uniform(0.0, 2 * np.pi, 2)
-    parts = roles.roles_of(m)
-    base = int(m.body_jntadr[parts.chassis])  # the wheels' root body's first joint
-    if base < 0 or m.jnt_type[base] != mujoco.mjtJoint.mjJNT_FREE:
-        raise ValueError(f"trial_start needs the robot's base body "
-                         f"{m.body(parts.chassis).name!r} on a free joint")
-    quat = d.qpos[m.jnt_qposadr[base] + 3:m.jnt_qposadr[base] + 7]
-    turned = np.empty(4)
-    mujoco.mju_mulQuat(turned, np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]), quat)
-    quat[:] = turned
-    for wheel, side in zip(parts.wheels, parts.wheel_side):  # side: +1 left, -1 right
-        d.qpos[m.jnt_qposadr[wheel.joint]] -= side * wheel_angle
-    mujoco.mj_forward(m, d)
-    return settle(m, d, settle_s)
-
 
 def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.random.Generator,
                draw: str = "clear", held: str = "value"

@@ -55,6 +55,37 @@ def settle(m: mujoco.MjModel, d: mujoco.MjData, duration_s: float = 2.0) -> np.n
     return get_state(m, d)
 
 
+def trial_start(m: mujoco.MjModel, rng: np.random.Generator, settle_s: float = 2.0
+                ) -> np.ndarray:
+    """A repeat trial's settled start state: where a previous swivel left the robot.
+
+    A swivel turns the robot in place by a yaw and its wheels by a number of turns
+    that is not whole, so a real dataset's trials start at a yaw and at wheel angles
+    nobody chose: here both are uniform in [0, 2 pi), the left wheels turned by minus
+    the angle of the right ones (a swivel turns the sides opposite ways, and the front
+    and rear wheel of a side alike, so the wheels' relative phases are kept).  On a
+    flat floor with round wheels this changes nothing; on an uneven floor the wheels
+    stand on other spots, and out-of-round wheels start at other phases, so the
+    trials' spread shows how much of a start-up depends on them (a run-out's start-up
+    moves by 2-17 trial spreads with the wheels' angle alone, measured on issue 21's
+    draw-1006)."""
+    d = mujoco.MjData(m)
+    yaw, wheel_angle = rng.uniform(0.0, 2 * np.pi, 2)
+    parts = roles.roles_of(m)
+    base = int(m.body_jntadr[parts.chassis])  # the wheels' root body's first joint
+    if base < 0 or m.jnt_type[base] != mujoco.mjtJoint.mjJNT_FREE:
+        raise ValueError(f"trial_start needs the robot's base body "
+                         f"{m.body(parts.chassis).name!r} on a free joint")
+    quat = d.qpos[m.jnt_qposadr[base] + 3:m.jnt_qposadr[base] + 7]
+    turned = np.empty(4)
+    mujoco.mju_mulQuat(turned, np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]), quat)
+    quat[:] = turned
+    for wheel, side in zip(parts.wheels, parts.wheel_side):  # side: +1 left, -1 right
+        d.qpos[m.jnt_qposadr[wheel.joint]] -= side * wheel_angle
+    mujoco.mj_forward(m, d)
+    return settle(m, d, settle_s)
+
+
 def sensor_slice(m: mujoco.MjModel, name: str) -> slice:
     """The sensordata slice of the sensor called name."""
     s = m.sensor(name)
