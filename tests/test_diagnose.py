@@ -380,7 +380,8 @@ def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
     cache = SimulationCache(tmp_path)
     default, first = simulate_groups([(factory, [group])] * 2, 8.0, starts=[0, 1], cache=cache)
     alone = simulate_groups([(factory, [group])], 8.0)[0]
-    assert np.array_equal(default.features, alone.features, equal_nan=True)  # start 0 is the default
+    # start 0 is the default
+    assert np.array_equal(default.features, alone.features, equal_nan=True)
     assert not np.array_equal(default.features, first.features, equal_nan=True)
     stored = simulate_groups([(factory, [group])] * 2, 8.0, starts=[1, 0], cache=cache,
                              signals=False)

@@ -225,7 +225,7 @@ def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: fl
             entry_key = None
             if cache is not None:
                 entry_key = cache.key(digest, settle_s, g.v_mps, g.omega_deg_s, duration_s,
-                                      chain, *((start,) if start else ()))
+                                      chain, start)
                 stored = None if signals else cache.get(entry_key)
                 if stored is not None:
                     (results[j].features[k], results[j].mean_yaw_rate_deg_s[k],

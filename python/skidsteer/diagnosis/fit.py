@@ -280,12 +280,17 @@ class _Evaluations:
         """The point's error on the held-out runs, the median over STARTS starts."""
         key = (_parameter_key(params), int(realisation))
         if key not in self.held_errors:
-            sims = over_starts(self.complete(params, realisation),
-                               self.factory(params, realisation), self.groups,
-                               _groups_of(self.comparison, held), self.duration_s, self.chain,
-                               self.backend, self.progress, self.stored)
-            self.held_errors[key] = median_error(self.comparison, sims, held, self.train)
+            self.held_errors[key] = self.held_out_over_starts(
+                self.complete(params, realisation), self.factory(params, realisation), held)
         return self.held_errors[key]
+
+    def held_out_over_starts(self, sim: Simulated, factory, held: np.ndarray) -> float:
+        """The held-out error of factory's model, sim its simulation from start 0: the
+        median over STARTS starts (over_starts), the bias taken on the training runs."""
+        sims = over_starts(sim, factory, self.groups, _groups_of(self.comparison, held),
+                           self.duration_s, self.chain, self.backend, self.progress,
+                           self.stored)
+        return median_error(self.comparison, sims, held, self.train)
 
     def best(self, realisation: int) -> tuple[dict[str, float], float, Simulated]:
         key = min((k for k in self.done if k[1] == realisation), key=lambda k: self.done[k][0])
@@ -592,10 +597,7 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
     except (ValueError, RuntimeError):
         return None
     comparison, train = evaluate.comparison, evaluate.train
-    sims = over_starts(sim, factory, evaluate.groups, _groups_of(comparison, held),
-                       evaluate.duration_s, evaluate.chain, evaluate.backend,
-                       evaluate.progress, evaluate.stored)
-    held_error = median_error(comparison, sims, held, train)
+    held_error = evaluate.held_out_over_starts(sim, factory, held)
     n_params = len(first.fitted) + len(second.fitted) + sum(
         np.log(REALISATIONS) for f in (first, second) if f.realisation is not None)
     score = _score(held_error, n_params, len(train))
