@@ -425,47 +425,68 @@ def _fit(name, held, score=None):
                          held ** 2 if score is None else score, None, [])
 
 
+def _judge(base_error, base_held, fits, noise):
+    """verdict with the base model's training error at its all-runs error: the training
+    runs tell every fit below it apart (the rules other than told_from_base)."""
+    return diagnosis.verdict(base_error, base_held, fits, noise, base_train=base_error,
+                             n_train=6)
+
+
 def test_verdict_rules():
     z = diagnosis.Z_CONSISTENT
-    assert diagnosis.verdict(z - 0.1, 1.0, [], noise=1.0)[0] == "no-discrepancy"
+    assert _judge(z - 0.1, 1.0, [], noise=1.0)[0] == "no-discrepancy"
     # the best candidate removes most of a large discrepancy but leaves more than
     # Z_EXPLAINED: named as the most likely cause, not failed by the absolute limit
     # ((8^2 - 3.5^2) / (8^2 - 1) = 82 %)
-    result, named, reason = diagnosis.verdict(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)],
-                                              noise=1.0)
+    result, named, reason = _judge(8.0, 8.0, [_fit("a", diagnosis.Z_EXPLAINED + 0.5)],
+                                   noise=1.0)
     assert result == "partly-explained" and named.cause == "a" and "82%" in reason
     # ... unless it removes less than half: (8^2 - 6^2) / 63 = 44 %
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 6.0)], noise=1.0)[:2] == ("unexplained", None)
+    assert _judge(8.0, 8.0, [_fit("a", 6.0)], noise=1.0)[:2] == ("unexplained", None)
     # ... or a rival removes about as much
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 3.5), _fit("b", 3.6)], noise=1.0)[:2] \
+    assert _judge(8.0, 8.0, [_fit("a", 3.5), _fit("b", 3.6)], noise=1.0)[:2] \
         == ("unexplained", None)
     # consistent, but removing less than half of the discrepancy over the trial noise:
     # (2.5^2 - 2.1^2) / (2.5^2 - 1^2) = 35 %
-    assert diagnosis.verdict(2.5, 2.5, [_fit("a", 2.1)], noise=1.0)[0] == "unexplained"
+    assert _judge(2.5, 2.5, [_fit("a", 2.1)], noise=1.0)[0] == "unexplained"
     # the same extension against a base error twice as large removes 84 %
-    assert diagnosis.verdict(5.0, 5.0, [_fit("a", 2.1)], noise=1.0)[0] == "explained"
+    assert _judge(5.0, 5.0, [_fit("a", 2.1)], noise=1.0)[0] == "explained"
     # two candidates equally good
-    assert diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)], noise=1.0)[0] \
+    assert _judge(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)], noise=1.0)[0] \
         == "unexplained"
-    result, named, _ = diagnosis.verdict(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)], noise=1.0)
+    result, named, _ = _judge(8.0, 8.0, [_fit("a", 1.2), _fit("b", 5.0)], noise=1.0)
     assert result == "explained" and named.cause == "a"
     # most of a small discrepancy removed ((1.6^2 - 1.1^2) / (1.6^2 - 1) = 87 %), but the
     # score with the fitted parameters' penalty (2.7) does not beat the base model's
     # (1.6^2 = 2.56): the held-out runs do not support the extension
-    assert diagnosis.verdict(3.0, 1.6, [_fit("a", 1.1, 2.7), _fit("b", 1.5, 2.8)],
-                             noise=1.0)[:2] == ("unexplained", None)
+    assert _judge(3.0, 1.6, [_fit("a", 1.1, 2.7), _fit("b", 1.5, 2.8)],
+                  noise=1.0)[:2] == ("unexplained", None)
     # the runner-up closes more than 3/4 of a large gap ((5.5^2 - 2.5^2) / (5.5^2 - 1.6^2)
     # = 87 %), but the held-out runs tell the two apart: the best is consistent with them
     # and the runner-up is not
-    result, named, _ = diagnosis.verdict(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5)], noise=1.0)
+    result, named, _ = _judge(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5)], noise=1.0)
     assert result == "explained" and named.cause == "a"
     # ... not when a third candidate is consistent with them too (a worse score: more
     # parameters)
-    assert diagnosis.verdict(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5), _fit("c", 1.9, 7.0)],
-                             noise=1.0)[0] == "unexplained"
+    assert _judge(5.5, 5.5, [_fit("a", 1.6), _fit("b", 2.5), _fit("c", 1.9, 7.0)],
+                  noise=1.0)[0] == "unexplained"
     # ... nor when both are consistent and close (the 3/4 rule decides: 0.56 < 0.75)
-    assert diagnosis.verdict(2.5, 2.5, [_fit("a", 1.8), _fit("b", 1.95)], noise=1.0)[0] \
+    assert _judge(2.5, 2.5, [_fit("a", 1.8), _fit("b", 1.95)], noise=1.0)[0] \
         == "unexplained"
+    # most of the held-out discrepancy removed and told apart from the others, but the
+    # training runs do not tell the fit from the base model: its training error (1.83)
+    # leaves the base model's (1.88) inside its profile bound (1.83 sqrt(7/6) = 1.98)
+    # (issue 21's draw 1106, an unbalanced fan named slip_lambda_max at 0.087 for 0.1)
+    fits = [_fit("a", 1.86), _fit("b", 2.57)]
+    fits[0].train_error = 1.83
+    assert diagnosis.verdict(2.13, 2.55, fits, noise=0.7, base_train=1.88, n_train=6)[:2] \
+        == ("unexplained", None)
+    assert "training runs do not tell" in diagnosis.verdict(
+        2.13, 2.55, fits, noise=0.7, base_train=1.88, n_train=6)[2]
+    # ... where a base training error outside the bound names it
+    result, named, _ = diagnosis.verdict(2.13, 2.55, fits, noise=0.7, base_train=2.1,
+                                         n_train=6)
+    assert result == "explained" and named.cause == "a"
 
 
 def test_gain_counts_the_discrepancy_beyond_the_trial_noise():

@@ -111,11 +111,14 @@ def _verdict(row: dict) -> tuple[str, str | None]:
     """(verdict, named cause) under the verdict rules as they are now: a row keeps what
     they read (the base model's errors, the trial noise, every fit's errors and score),
     so a rule changed later is judged on every row without simulating again.  Rows
-    written before they kept it (no "ranking") give the verdict they had."""
-    if "ranking" not in row:
+    written before they kept it (no "ranking", or no "base_train") give the verdict they
+    had (the committed rows have the base model's training error: rows written before it
+    was kept got it afterwards from their datasets, scripts/bench/backfill_base_train.py)."""
+    if "ranking" not in row or "base_train" not in row:
         return row["verdict"], row["cause"]
     fits = [SimpleNamespace(**f) for f in row["ranking"]]
-    result, named, _ = verdict(row["baseline_error"], row["held_out"][0], fits, row["noise"])
+    result, named, _ = verdict(row["baseline_error"], row["held_out"][0], fits, row["noise"],
+                               base_train=row["base_train"], n_train=row["n_train"])
     return result, named.cause if named is not None else None
 
 
@@ -124,13 +127,18 @@ def _outcome(row: dict) -> str:
     return outcome(row["effect"], *_verdict(row), row["baseline_error"])
 
 
+def generate(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
+    """Writes the case's dataset to out/datasets/CASE; returns its truth."""
+    return make_dataset(out / "datasets" / case["case"], case["effect"], case["params"],
+                        seed=case["seed"], omegas=case["omegas"], trials=trials,
+                        duration_s=duration_s, setup=Setup(build="extended", floor=case["floor"]),
+                        nthread=threads, held="prior")
+
+
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
     data = out / "datasets" / case["case"]
     started = time.perf_counter()
-    truth = make_dataset(data, case["effect"], case["params"], seed=case["seed"],
-                         omegas=case["omegas"], trials=trials, duration_s=duration_s,
-                         setup=Setup(build="extended", floor=case["floor"]), nthread=threads,
-                         held="prior")
+    truth = generate(case, out, trials, duration_s, threads)
     generated_s = time.perf_counter() - started
     result = diagnose(data, None, nthread=threads, progress=True,
                       cache_dir=out / "simulations")
@@ -146,6 +154,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # what the verdict rules read (_verdict judges the row again by the rules of
             # the day)
             "noise": result["gain"]["noise_error"],
+            "base_train": result["baseline_error_training"], "n_train": result["training_runs"],
             "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
                                            "fitted", "parameters")} for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],

@@ -410,7 +410,9 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
                [[g["metric"], _fmt(g["baseline_error"]), _fmt(g["extended_error"]),
                  _fmt(g["noise_error"]), f"{g['relative_reduction']:.0%}",
                  f"{g['rms_reduction']:.0%}"]]), "",
-        f"Base error over all runs: {diagnosis['baseline_error_all_runs']:.2f}.", "",
+        f"Base error over all runs: {diagnosis['baseline_error_all_runs']:.2f}; on the "
+        f"{diagnosis['training_runs']} training runs (from rest, as the candidates' training "
+        f"errors): {diagnosis['baseline_error_training']:.2f}.", "",
         "## Candidates, best first", "",
         table(["cause", "held-out error", "training error", "score (E^2 + penalty)",
                 "removed", "fitted parameters (interval)"],

@@ -1,0 +1,245 @@
+"""Benchmark: how often could `diagnose` name the right cause at all (issue 21's ceiling)?
+
+The generalisation benchmark (bench_diagnose_generalisation.py) measures how often
+diagnose names the hidden cause.  A miss there has two possible owners: the fit (it
+did not find the truth's parameters) or the data (even the truth, simulated as the
+diagnosis simulates a fit, would not pass the verdict rules on three commands x three
+trials with the middle command held out).  This script separates them: for every
+cause's dataset of the generalisation results whose effect is clear of the trials'
+noise, it simulates the hidden truth itself (the same edit, parameters and
+realisation that made the dataset: synth.truth_edit replayed from the dataset's seed)
+exactly as a fit's end is simulated (every command from start 0, the held-out commands
+from STARTS starts, the median error), pays the parameters the hidden cause's fit paid
+(the row's fitted parameters, and ln REALISATIONS for a random geometry), and puts it
+in the row's ranking in place of the hidden cause's own fit.  The verdict rules then
+say whether the truth would be named: the ceiling of any fit, given the data and the
+rules.  A row keeps what the rules read (the base model's errors on all, held-out and
+training runs, the truth's held-out and training errors and score, the trial noise), so
+the report judges every row by the rules as they are now.
+
+The other causes' fits are the row's, as they ran (rows of older code read their
+errors as they were); the base model's errors and the trial noise are computed again
+with the code as it is.  Datasets are regenerated under --out when missing (the same
+call as the generalisation benchmark) and simulations are kept in its cache.
+
+    python scripts/bench/bench_diagnose_ceiling.py --out /tmp/gen \
+        --results docs/diagnose-generalisation.jsonl --ceiling docs/diagnose-ceiling.jsonl \
+        --markdown docs/diagnose-ceiling.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import skidsteer  # noqa: E402,F401
+from _machine import machine  # noqa: E402
+from bench_diagnose_generalisation import FIXED, _outcome, generate  # noqa: E402
+from skidsteer.data.dataset import read_dataset  # noqa: E402
+from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
+from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
+                                            model_factory, simulate_groups)
+from skidsteer.diagnosis.fit import (MIN_GAIN, REALISATIONS, _score, gain,  # noqa: E402
+                                     median_error, over_starts, split)
+from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
+from skidsteer.reports.markdown import table  # noqa: E402
+from skidsteer.simulation.backends import LocalBackend  # noqa: E402
+from skidsteer.simulation.cache import SimulationCache, code_fingerprint  # noqa: E402
+from skidsteer.simulation.sensor_chain import SensorChain  # noqa: E402
+
+
+def _dataset(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> Path:
+    """The case's dataset directory, generated as the generalisation benchmark does
+    when it is not there."""
+    data = out / "datasets" / case["case"]
+    if not (data / "runs.csv").exists():
+        generate(case, out, trials, duration_s, threads)
+    return data
+
+
+def _why_not(reason: str, row: dict, removed: float) -> str:
+    """A short label for the rule that stops the truth (verdict's reason)."""
+    if row["base_held"] <= Z_CONSISTENT:
+        return "held-out quiet"
+    if removed < MIN_GAIN:
+        return "gain"
+    if "paid for" in reason:
+        return "score"
+    if "base model (training" in reason:
+        return "training"
+    if "about equally well" in reason:
+        return "not separated"
+    return "other"
+
+
+def judged(row: dict, diagnosed: dict) -> dict:
+    """The verdict the truth gets by the verdict rules as they are now, from what the row
+    keeps (the base model's errors, the truth's, the trial noise) and the other causes'
+    fits of the generalisation row `diagnosed`: a rule changed later is judged on every
+    row without simulating again."""
+    truth = SimpleNamespace(cause=row["effect"], held_out_error=row["truth_held"],
+                            train_error=row["truth_train"], score=row["truth_score"])
+    others = [SimpleNamespace(**f) for f in diagnosed.get("ranking", [])
+              if f["cause"] != row["effect"]]
+    fits = sorted([truth, *others], key=lambda f: f.score)
+    result, named, reason = verdict(row["base_error"], row["base_held"], fits, row["noise"],
+                                    base_train=row["base_train"], n_train=row["n_train"])
+    is_named = named is not None and named.cause == row["effect"]
+    removed = gain(row["base_held"], row["truth_held"], row["noise"])
+    return {"verdict": result, "named": is_named, "removed": removed, "reason": reason,
+            "stopped_by": None if is_named else _why_not(reason, row, removed),
+            "diagnose": _outcome(diagnosed)}
+
+
+def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: float,
+                 threads: int) -> dict:
+    """The truth of one dataset simulated as a fit's end: what the verdict reads."""
+    started = time.perf_counter()
+    data = _dataset(case, out, trials, duration_s, threads)
+    backend, chain = LocalBackend(threads), SensorChain()
+    stored = SimulationCache(out / "simulations")
+    observed = Observed.from_dataset(read_dataset(data), group_wheel_rates(model_factory()))
+    groups = observed.groups
+    train, held = split(observed)
+    every = list(range(len(groups)))
+    held_groups = sorted({int(g) for g in observed.run_group[held]})
+    all_runs = np.arange(len(observed.run_group))
+
+    def simulated(factory, which):
+        first = simulate_groups([(factory, groups)], observed.duration_s, chain,
+                                backend=backend, cache=stored, signals=False)[0]
+        return first, over_starts(first, factory, groups, which, observed.duration_s,
+                                  chain, backend, None, stored)
+
+    base_model = model_factory()
+    base, base_starts = simulated(base_model, every)
+    observed = observed.with_wheel_rates(base.wheel_rates_hz)  # as diagnose_observed
+    comparison = Comparison(observed)
+
+    # the truth, replayed from the seed as synth.make_dataset drew it
+    edit, values = truth_edit(case["effect"], case["params"], np.random.default_rng(case["seed"]),
+                              "clear", "prior")
+    if not all(np.isclose(values[k], v) for k, v in row["truth"].items()):
+        raise RuntimeError(f"{case['case']}: the replayed truth {values} is not the dataset's "
+                           f"{row['truth']} (synth.make_dataset draws in another order now)")
+    truth_first, truth_starts = simulated(model_factory(edit), held_groups)
+    held_errors = [comparison.error(s.features, held, train) for s in truth_starts]
+    truth_held = float(np.median(held_errors))
+    cause = causes.get(case["effect"])
+    own = next((f for f in row.get("ranking", []) if f["cause"] == case["effect"]), None)
+    n_fitted = len(own["fitted"]) if own else 1 + len(cause.held)
+    n_params = n_fitted + (np.log(REALISATIONS) if cause.random_realisation else 0.0)
+    return {"case": case["case"], "effect": case["effect"], "floor": case["floor"],
+            "omegas": list(case["omegas"]), "truth": values,
+            "base_error": median_error(comparison, base_starts, all_runs),
+            "base_held": median_error(comparison, base_starts, held, train),
+            "base_train": comparison.error(base.features, train), "n_train": int(len(train)),
+            "noise": comparison.noise_error(),
+            "truth_held": truth_held, "truth_held_starts": held_errors,
+            "truth_train": comparison.error(truth_first.features, train),
+            "truth_score": _score(truth_held, n_params, len(train)),
+            "fit_held": own["held_out_error"] if own else None,
+            "seconds": round(time.perf_counter() - started, 1),
+            "code": code_fingerprint()[:12]}
+
+
+def report(rows: list[dict], diagnosed: dict[str, dict]) -> str:
+    """The table; diagnosed: the generalisation benchmark's newest row per case."""
+    verdicts = [judged(r, diagnosed[r["case"]]) for r in rows]
+    named = [r for r, v in zip(rows, verdicts) if v["named"]]
+    judged_rows = [(r, v) for r, v in zip(rows, verdicts) if r["base_held"] > Z_CONSISTENT]
+    judged_named = [r for r, v in judged_rows if v["named"]]
+    diagnosed_right = [r for r, v in zip(rows, verdicts) if v["named"] and v["diagnose"] == "right"]
+
+    def rate(k, n):
+        return f"{k} of {n}" + (f" ({k / n:.0%})" if n else "")
+
+    stops = Counter(v["stopped_by"] for v in verdicts if not v["named"])
+    lines = [table(["case", "effect", "floor", "deg/s", "base held-out", "truth held-out",
+                    "truth removes", "fit held-out", "with the truth", "diagnose"],
+                   [[r["case"], r["effect"], r["floor"],
+                     "/".join(f"{w:g}" for w in r["omegas"]), f"{r['base_held']:.2f}",
+                     f"{r['truth_held']:.2f}", f"{v['removed']:.0%}",
+                     "-" if r["fit_held"] is None else f"{r['fit_held']:.2f}",
+                     "named" if v["named"] else f"not named ({v['stopped_by']})",
+                     v["diagnose"]] for r, v in zip(rows, verdicts)]).rstrip(), "",
+             f"{len(rows)} causes' datasets clear of the trials' noise: the truth itself would "
+             f"be named in {rate(len(named), len(rows))}; of those whose held-out command "
+             f"shows a discrepancy (base error above {Z_CONSISTENT:g}), "
+             f"{rate(len(judged_named), len(judged_rows))}.  diagnose named "
+             f"{rate(len(diagnosed_right), len(named))} of the datasets where the truth would "
+             "be named.  Where the truth is not named, the rule that stops it: "
+             + (", ".join(f"{k} {n}" for k, n in sorted(stops.items())) or "none") + ".",
+             f"Machine: {machine()}."]
+    return "\n".join(lines)
+
+
+def _rows(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, required=True, help="the generalisation benchmark's "
+                    "--out (datasets and simulation cache)")
+    ap.add_argument("--results", type=Path, required=True,
+                    help="the generalisation benchmark's rows")
+    ap.add_argument("--ceiling", type=Path, required=True, help="this benchmark's rows "
+                    "(JSON lines, appended as each case finishes; a rerun resumes)")
+    ap.add_argument("--only", nargs="*", help="only these cases")
+    ap.add_argument("--trials", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=20.0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--report", action="store_true", help="print the table and stop")
+    ap.add_argument("--markdown", type=Path, help="also write the table to this file")
+    args = ap.parse_args(argv)
+
+    newest = {}
+    for row in _rows(args.results):
+        newest[row["case"]] = row  # a case's newest row, as the generalisation report
+    if not args.report:
+        done = {r["case"] for r in _rows(args.ceiling)}
+        # a case as the generalisation benchmark ran it: its row holds the effect, seed,
+        # floor and commands (the fixed cases' parameters are FIXED's)
+        todo = [{**{k: row[k] for k in ("case", "effect", "seed", "floor", "omegas")},
+                 "params": FIXED.get(name, {}).get("params")}
+                for name, row in newest.items()
+                if row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
+                and name not in done and (not args.only or name in args.only)]
+        # the misses first (what the ceiling is to explain), then the newest rows
+        todo.sort(key=lambda c: (_outcome(newest[c["case"]]) != "missed", -c["seed"]))
+        for i, case in enumerate(todo):
+            try:
+                result = ceiling_case(case, newest[case["case"]], args.out, args.trials,
+                                      args.duration, args.threads)
+            except Exception as err:  # one broken case does not sink the run
+                print(f"{case['case']}: failed: {err!r}", flush=True)
+                continue
+            with args.ceiling.open("a") as f:
+                f.write(json.dumps(result) + "\n")
+            print(f"[{i + 1}/{len(todo)}] {case['case']} {case['effect']}: held-out error "
+                  f"base {result['base_held']:.2f}, truth {result['truth_held']:.2f}; training "
+                  f"base {result['base_train']:.2f}, truth {result['truth_train']:.2f} "
+                  f"({result['seconds']:.0f} s)", flush=True)
+    rows = _rows(args.ceiling)
+    text = report(rows, newest)
+    print(text)
+    if args.markdown:
+        args.markdown.write_text("# Could diagnose name the cause at all? (the truth's verdict)"
+                                 "\n\nGenerated by `scripts/bench/bench_diagnose_ceiling.py`; "
+                                 "see its docstring for the method.\n\n" + text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
