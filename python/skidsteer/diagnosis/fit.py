@@ -816,8 +816,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
                    f"{pair['held_out_error']:.2f}): two effects may be at work")
     found = Diagnosis(observed, comparison, train, held, base, base_error, base_held, base_train,
-                      noise,
-                      fits, not_applicable, result, named, reason, pair)
+                      noise, fits, not_applicable, result, named, reason, pair)
     reference = found.reference
     if signals and reference is not None and reference.simulated.accel[0] is None:
         # read from the cache: simulate the fit a report plots again, for its signals
