@@ -24,32 +24,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import skidsteer  # noqa: E402,F401
-from bench_diagnose_ceiling import _dataset  # noqa: E402
-from bench_diagnose_generalisation import FIXED  # noqa: E402
-from skidsteer.data.dataset import read_dataset  # noqa: E402
+from bench_diagnose_ceiling import Measured  # noqa: E402
+from bench_diagnose_generalisation import case_of  # noqa: E402
 from skidsteer.data.files import write_text  # noqa: E402
-from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
-                                            model_factory, simulate_groups)
-from skidsteer.diagnosis.fit import split  # noqa: E402
-from skidsteer.simulation.backends import LocalBackend  # noqa: E402
-from skidsteer.simulation.cache import SimulationCache, code_fingerprint  # noqa: E402
-from skidsteer.simulation.sensor_chain import SensorChain  # noqa: E402
+from skidsteer.simulation.cache import code_fingerprint  # noqa: E402
 
 
 def base_train(row: dict, out: Path, threads: int) -> dict:
     """The base model's training error (start 0) on the row's dataset."""
-    case = {**{k: row[k] for k in ("case", "effect", "seed", "floor", "omegas")},
-            "params": FIXED.get(row["case"], {}).get("params")}
-    data = _dataset(case, out, 3, 20.0, threads)
-    observed = Observed.from_dataset(read_dataset(data), group_wheel_rates(model_factory()))
-    train, _ = split(observed)
-    base = simulate_groups([(model_factory(), observed.groups)], observed.duration_s,
-                           SensorChain(), backend=LocalBackend(threads),
-                           cache=SimulationCache(out / "simulations"), signals=False)[0]
-    comparison = Comparison(observed.with_wheel_rates(base.wheel_rates_hz))
+    m = Measured(case_of(row), out, 3, 20.0, threads)  # the benchmark's trials and length
     return {"case": row["case"], "seed": row["seed"],
-            "base_train": comparison.error(base.features, train), "n_train": int(len(train)),
-            "base_train_code": code_fingerprint()[:12]}
+            "base_train": m.comparison.error(m.base.features, m.train),
+            "n_train": int(len(m.train)), "base_train_code": code_fingerprint()[:12]}
 
 
 def _lines(path: Path) -> list[dict]:

@@ -44,13 +44,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
-from bench_diagnose_generalisation import FIXED, _outcome, generate  # noqa: E402
+from bench_diagnose_generalisation import _outcome, case_of, generate  # noqa: E402
 from skidsteer.data.dataset import read_dataset  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
                                             model_factory, simulate_groups)
 from skidsteer.diagnosis.fit import (MIN_GAIN, REALISATIONS, _score, gain,  # noqa: E402
-                                     median_error, over_starts, split)
+                                     median_error, over_starts, separated, split,
+                                     told_from_base)
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
@@ -67,17 +68,20 @@ def _dataset(case: dict, out: Path, trials: int, duration_s: float, threads: int
     return data
 
 
-def _why_not(reason: str, row: dict, removed: float) -> str:
-    """A short label for the rule that stops the truth (verdict's reason)."""
+def _why_not(fits: list, row: dict, removed: float) -> str:
+    """The rule that stops the truth, checked in verdict's order with its own rules."""
+    best = fits[0]
     if row["base_held"] <= Z_CONSISTENT:
         return "held-out quiet"
+    if best.cause != row["effect"]:
+        return f"{best.cause} scores better"
     if removed < MIN_GAIN:
         return "gain"
-    if "paid for" in reason:
+    if best.score >= row["base_held"] ** 2:
         return "score"
-    if "base model (training" in reason:
+    if not told_from_base(row["base_train"], best, row["n_train"]):
         return "training"
-    if "about equally well" in reason:
+    if len(fits) > 1 and not separated(row["base_held"], best, fits[1:]):
         return "not separated"
     return "other"
 
@@ -97,34 +101,46 @@ def judged(row: dict, diagnosed: dict) -> dict:
     is_named = named is not None and named.cause == row["effect"]
     removed = gain(row["base_held"], row["truth_held"], row["noise"])
     return {"verdict": result, "named": is_named, "removed": removed, "reason": reason,
-            "stopped_by": None if is_named else _why_not(reason, row, removed),
+            "stopped_by": None if is_named else _why_not(fits, row, removed),
             "diagnose": _outcome(diagnosed)}
+
+
+class Measured:
+    """A case's dataset (regenerated under out when missing) compared as diagnose compares
+    it: the training and held-out runs, the base model from start 0 and the Comparison
+    read at its wheel rates.  simulated() runs a model through the simulation cache."""
+
+    def __init__(self, case: dict, out: Path, trials: int, duration_s: float, threads: int):
+        data = _dataset(case, out, trials, duration_s, threads)
+        self.backend, self.chain = LocalBackend(threads), SensorChain()
+        self.stored = SimulationCache(out / "simulations")
+        observed = Observed.from_dataset(read_dataset(data), group_wheel_rates(model_factory()))
+        self.groups, self.duration_s = observed.groups, observed.duration_s
+        self.train, self.held = split(observed)
+        self.base = self.simulated(model_factory())
+        # the records' wheel orders at the base model's wheel rates, as diagnose_observed
+        self.observed = observed.with_wheel_rates(self.base.wheel_rates_hz)
+        self.comparison = Comparison(self.observed)
+
+    def simulated(self, factory):
+        return simulate_groups([(factory, self.groups)], self.duration_s, self.chain,
+                               backend=self.backend, cache=self.stored, signals=False)[0]
+
+    def over_starts(self, first, factory, which: list[int]):
+        return over_starts(first, factory, self.groups, which, self.duration_s, self.chain,
+                           self.backend, None, self.stored)
 
 
 def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: float,
                  threads: int) -> dict:
     """The truth of one dataset simulated as a fit's end: what the verdict reads."""
     started = time.perf_counter()
-    data = _dataset(case, out, trials, duration_s, threads)
-    backend, chain = LocalBackend(threads), SensorChain()
-    stored = SimulationCache(out / "simulations")
-    observed = Observed.from_dataset(read_dataset(data), group_wheel_rates(model_factory()))
-    groups = observed.groups
-    train, held = split(observed)
-    every = list(range(len(groups)))
-    held_groups = sorted({int(g) for g in observed.run_group[held]})
-    all_runs = np.arange(len(observed.run_group))
-
-    def simulated(factory, which):
-        first = simulate_groups([(factory, groups)], observed.duration_s, chain,
-                                backend=backend, cache=stored, signals=False)[0]
-        return first, over_starts(first, factory, groups, which, observed.duration_s,
-                                  chain, backend, None, stored)
-
-    base_model = model_factory()
-    base, base_starts = simulated(base_model, every)
-    observed = observed.with_wheel_rates(base.wheel_rates_hz)  # as diagnose_observed
-    comparison = Comparison(observed)
+    m = Measured(case, out, trials, duration_s, threads)
+    comparison, train, held = m.comparison, m.train, m.held
+    run_group = m.observed.run_group
+    base_starts = m.over_starts(m.base, model_factory(), list(range(len(m.groups))))
+    held_groups = sorted({int(g) for g in run_group[held]})
+    all_runs = np.arange(len(run_group))
 
     # the truth, replayed from the seed as synth.make_dataset drew it
     edit, values = truth_edit(case["effect"], case["params"], np.random.default_rng(case["seed"]),
@@ -132,7 +148,9 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
     if not all(np.isclose(values[k], v) for k, v in row["truth"].items()):
         raise RuntimeError(f"{case['case']}: the replayed truth {values} is not the dataset's "
                            f"{row['truth']} (synth.make_dataset draws in another order now)")
-    truth_first, truth_starts = simulated(model_factory(edit), held_groups)
+    truth_model = model_factory(edit)
+    truth_first = m.simulated(truth_model)
+    truth_starts = m.over_starts(truth_first, truth_model, held_groups)
     held_errors = [comparison.error(s.features, held, train) for s in truth_starts]
     truth_held = float(np.median(held_errors))
     cause = causes.get(case["effect"])
@@ -143,7 +161,7 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
             "omegas": list(case["omegas"]), "truth": values,
             "base_error": median_error(comparison, base_starts, all_runs),
             "base_held": median_error(comparison, base_starts, held, train),
-            "base_train": comparison.error(base.features, train), "n_train": int(len(train)),
+            "base_train": comparison.error(m.base.features, train), "n_train": int(len(train)),
             "noise": comparison.noise_error(),
             "truth_held": truth_held, "truth_held_starts": held_errors,
             "truth_train": comparison.error(truth_first.features, train),
@@ -225,11 +243,7 @@ def main(argv=None) -> int:
         newest[row["case"]] = row  # a case's newest row, as the generalisation report
     if not args.report:
         done = {r["case"] for r in _rows(args.ceiling)}
-        # a case as the generalisation benchmark ran it: its row holds the effect, seed,
-        # floor and commands (the fixed cases' parameters are FIXED's)
-        todo = [{**{k: row[k] for k in ("case", "effect", "seed", "floor", "omegas")},
-                 "params": FIXED.get(name, {}).get("params")}
-                for name, row in newest.items()
+        todo = [case_of(row) for name, row in newest.items()
                 if row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
                 and name not in done and (not args.only or name in args.only)]
         # the misses first (what the ceiling is to explain), then the newest rows

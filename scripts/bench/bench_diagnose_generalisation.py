@@ -135,6 +135,14 @@ def generate(case: dict, out: Path, trials: int, duration_s: float, threads: int
                         nthread=threads, held="prior")
 
 
+def case_of(row: dict) -> dict:
+    """A row's case as plan() made it: the row holds its effect, seed, floor and commands
+    (the effect cycle of plan() depends on --first-seed; the row does not), the fixed
+    cases' parameters are FIXED's."""
+    return {**{k: row[k] for k in ("case", "effect", "seed", "floor", "omegas")},
+            "params": FIXED.get(row["case"], {}).get("params")}
+
+
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
     data = out / "datasets" / case["case"]
     started = time.perf_counter()

@@ -87,7 +87,7 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 SEPARATION = 0.25
 # ... and the training runs tell it from the base model: the base model's training error
 # (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n),
-# the bound its intervals use (_interval): the base model, the cause at its null, is not
+# the bound its intervals use (profile_factor): the base model, the cause at its null, is not
 # among the parameter values the training runs allow.  Without it a cause fitted next to
 # its null value can be named on the held-out runs' scatter alone (issue 21's draw 1106:
 # an unbalanced fan, base error 2.13, named slip_lambda_max at 0.087 for the base model's
@@ -163,10 +163,16 @@ def split(observed: Observed) -> tuple[np.ndarray, np.ndarray]:
     return runs[~held], runs[held]
 
 
+def profile_factor(n_train: int) -> float:
+    """The profile bound on a training error squared, as a factor on the best fit's:
+    E^2 <= E_min^2 (1 + 1/n), a Delta chi^2 = 1 bound with the residual variance scaled
+    to the best fit and each training run counted as one observation (features of a run
+    are correlated).  The intervals (_interval) and told_from_base read it."""
+    return 1 + 1 / max(n_train, 1)
+
+
 def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
-    """Values whose training error is within the profile bound E^2 <= E_min^2 (1 + 1/n):
-    a Delta chi^2 = 1 bound with the residual variance scaled to the best fit and each
-    training run counted as one observation (features of a run are correlated).
+    """Values whose training error is within the profile bound (profile_factor).
 
     Each edge is where the parabola through the last point inside the bound, the first
     outside and the point beyond the first (in the prior's coordinate, log or linear)
@@ -181,7 +187,7 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
     inv = np.exp if log else (lambda a: a)
     c = coord(np.array([v for v, _ in ev], dtype=float))
     e2 = np.array([e for _, e in ev]) ** 2
-    bound = e2.min() * (1 + 1 / max(n_train, 1))
+    bound = e2.min() * profile_factor(n_train)
     ok = np.flatnonzero(e2 <= bound)
     lo_i, hi_i = ok.min(), ok.max()
 
@@ -535,7 +541,7 @@ def separated(base_held: float, best: Fit, others: list[Fit]) -> bool:
 def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     """Whether the training runs tell the best fit from the base model: the base model's
     training error lies outside the fit's profile bound (_interval's)."""
-    return base_train ** 2 > best.train_error ** 2 * (1 + 1 / max(n_train, 1))
+    return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
 def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, *,
@@ -580,7 +586,7 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
         return "unexplained", None, (
             f"the training runs do not tell the best candidate, {best.cause}, from the base "
             f"model (training error {base_train:.2f} -> {best.train_error:.2f}, within the "
-            f"fit's profile bound {best.train_error * np.sqrt(1 + 1 / max(n_train, 1)):.2f}); "
+            f"fit's profile bound {best.train_error * np.sqrt(profile_factor(n_train)):.2f}); "
             f"the held-out gain ({base_held:.2f} -> {best.held_out_error:.2f}) alone does not "
             "establish it")
     if len(fits) > 1 and not separated(base_held, best, fits[1:]):
