@@ -58,6 +58,11 @@ class Parameter:
     def draw(self, rng: np.random.Generator) -> float:
         return float(self.from_unit(rng.uniform()))
 
+    def levels(self, n: int) -> np.ndarray:
+        """The middles of n equal (log or linear) slices of the prior: a coarse design's
+        levels of this parameter (Cause.design)."""
+        return self.from_unit((np.arange(n) + 0.5) / n)
+
 
 @dataclasses.dataclass(frozen=True)
 class Cause:
@@ -85,8 +90,8 @@ class Cause:
     mirror: Callable[[Mapping[str, float]], dict[str, float]] | None = None
     # () -> parameter sets a fit of every parameter also starts from (a coarse design over
     # parameters the main parameter's one-dimensional fit says nothing about: a frame's
-    # roll and pitch stiffnesses); the search starts from the best of them and the main
-    # fit (diagnosis.fit.fit_every_parameter)
+    # roll and pitch stiffnesses, a floor's correlation length); the search starts from
+    # the best of them and the main fit (diagnosis.fit.fit_every_parameter)
     design: Callable[[], list[dict[str, float]]] | None = None
 
     def parameters(self, main_value: float | None = None,

@@ -68,7 +68,7 @@ def stiffness_design() -> list[dict[str, float]]:
     reach: issue 21's draw-1003 (roll 169 N m/rad, pitch 9.6x) was fitted at roll 2244,
     pitch 0.5x (training error 1.72), where the design's (153, 1961 N m/rad) scores 1.38
     and the truth 1.35 (measured on its training runs)."""
-    levels = STIFFNESS.from_unit((np.arange(DESIGN_LEVELS) + 0.5) / DESIGN_LEVELS)
+    levels = STIFFNESS.levels(DESIGN_LEVELS)
     return [{STIFFNESS.name: float(roll), PITCH_STIFFNESS_RATIO.name: float(pitch / roll),
              DAMPING_RATIO.name: DAMPING_RATIO.value} for roll in levels for pitch in levels]
 
