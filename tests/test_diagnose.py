@@ -515,6 +515,21 @@ def test_verdict_rules():
                                          n_train=6)
     assert result == "explained" and named.cause == "a"
 
+    # the held-out runs name a (1.55, the runner-up b 3.40: separated), but the training
+    # runs prefer b beyond its profile bound (1.42 sqrt(7/6) = 1.53 < 1.77): the two halves
+    # disagree (issue 21's draw 1126, a rough floor named a run-out)
+    fits = [_fit("a", 1.55, 3.44), _fit("b", 3.40, 12.90)]
+    fits[0].train_error, fits[1].train_error = 1.77, 1.42
+    result, named, reason = diagnosis.verdict(7.21, 8.40, fits, noise=0.98, base_train=6.52,
+                                              n_train=6)
+    assert (result, named) == ("unexplained", None) and "training runs prefer b" in reason
+    # ... where b's training error leaves a's inside its bound (1.65 sqrt(7/6) = 1.78), a is
+    # named
+    fits[1].train_error = 1.65
+    result, named, _ = diagnosis.verdict(7.21, 8.40, fits, noise=0.98, base_train=6.52,
+                                         n_train=6)
+    assert result == "explained" and named.cause == "a"
+
 
 def test_gain_counts_the_discrepancy_beyond_the_trial_noise():
     # a perfect extension (at the noise) removes all of it, even against a base error

@@ -50,8 +50,8 @@ from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
                                             model_factory, simulate_groups)
 from skidsteer.diagnosis.fit import (MIN_GAIN, REALISATIONS, _score, gain,  # noqa: E402
-                                     median_error, over_starts, separated, split,
-                                     told_from_base)
+                                     median_error, over_starts, preferred_in_training,
+                                     separated, split, told_from_base)
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
@@ -83,6 +83,9 @@ def _why_not(fits: list, row: dict, removed: float) -> str:
         return "training"
     if len(fits) > 1 and not separated(row["base_held"], best, fits[1:]):
         return "not separated"
+    rival = preferred_in_training(best, fits[1:], row["n_train"])
+    if rival is not None:
+        return f"training prefers {rival.cause}"
     return "other"
 
 

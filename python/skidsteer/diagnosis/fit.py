@@ -93,6 +93,17 @@ SEPARATION = 0.25
 # an unbalanced fan, base error 2.13, named slip_lambda_max at 0.087 for the base model's
 # 0.1, 51 % removed; training errors 1.83 against the base model's 1.88, inside the
 # bound 1.98; added after seeing it, judged on the benchmark's draws after it)
+# ... and the training runs do not prefer another candidate: no other fit's training error
+# is so far below the best's that the best lies outside that fit's profile bound,
+# E_best^2 > E_other^2 (1 + 1/n).  The fits are chosen on the training runs and judged on
+# the held-out ones; when the two halves of the data prefer different causes, each beyond
+# the other's bound, the data do not tell them apart and naming the held-out half's
+# choice is a guess (issue 21's draw 1126: a rough floor of 1.02 mm, 0.078 m on concrete,
+# named a run-out, held-out 1.55 against the floor fit's 3.40, while the training runs
+# gave the floor fit 1.42 and the run-out 1.77; the truth itself scores 1.14 held-out and
+# is not separated from the run-out, so "unexplained" is the answer the data allow.  Added
+# after seeing it; of the 61 earlier named rows whose rankings are kept it changes no
+# other; judged on the benchmark's draws after it)
 PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs); choosing one of N
 # realisations counts as ln N parameters (its description length in nats)
 # The errors the verdict reads (the base model's, every fit's held-out error, the pair's)
@@ -544,6 +555,15 @@ def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
+def preferred_in_training(best: Fit, others: list[Fit], n_train: int) -> Fit | None:
+    """The other fit the training runs prefer to the best beyond its profile bound (the
+    lowest training error of those), or None: the best's training error squared exceeds
+    that fit's times profile_factor."""
+    bound = best.train_error ** 2 / profile_factor(n_train)
+    preferred = [f for f in others if f.train_error ** 2 < bound]
+    return min(preferred, key=lambda f: f.train_error) if preferred else None
+
+
 def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, *,
             base_train: float, n_train: int) -> tuple[str, Fit | None, str]:
     """(verdict, named fit or None, reason); noise: Comparison.noise_error(); base_train:
@@ -553,8 +573,9 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
     no-discrepancy: the base model is within Z_CONSISTENT.  Otherwise the best fit is
     the most likely cause when it removes at least MIN_GAIN of the held-out discrepancy,
     its score beats the base model's (the held-out error squared: no parameter), the
-    training runs tell it from the base model (told_from_base) and it is
-    told apart from the others (separated); it is then named, "explained" when its
+    training runs tell it from the base model (told_from_base), it is told apart from
+    the others (separated) and the training runs do not prefer another
+    (preferred_in_training); it is then named, "explained" when its
     held-out error is within Z_EXPLAINED and "partly-explained" when it is not (it
     removes most of a large discrepancy and leaves a part no candidate covers: the
     summary says which features and how far).  Anything else is "unexplained".
@@ -593,6 +614,13 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
         return "unexplained", None, (
             f"{best.cause} and {fits[1].cause} explain the data about equally well "
             f"(held-out {best.held_out_error:.2f} vs {fits[1].held_out_error:.2f})")
+    rival = preferred_in_training(best, fits[1:], n_train)
+    if rival is not None:
+        return "unexplained", None, (
+            f"the held-out runs prefer {best.cause} (error {best.held_out_error:.2f} against "
+            f"{rival.held_out_error:.2f}) but the training runs prefer {rival.cause} (training "
+            f"error {rival.train_error:.2f} against {best.train_error:.2f}, beyond the profile "
+            f"bound): the two halves of the data disagree about the cause")
     runner_up = (f"the runner-up {fits[1].cause} reaches {fits[1].held_out_error:.2f}"
                  if len(fits) > 1 else "no other candidate applies")
     if best.held_out_error > Z_EXPLAINED:
