@@ -515,20 +515,24 @@ def test_verdict_rules():
                                          n_train=6)
     assert result == "explained" and named.cause == "a"
 
-    # the held-out runs name a (1.55, the runner-up b 3.40: separated), but the training
-    # runs prefer b beyond its profile bound (1.42 sqrt(7/6) = 1.53 < 1.77): the two halves
-    # disagree (issue 21's draw 1126, a rough floor named a run-out)
-    fits = [_fit("a", 1.55, 3.44), _fit("b", 3.40, 12.90)]
+    # the held-out runs name the run-out (1.55, the floor 3.40: separated), but the
+    # training runs rank the floor first: training scores 1.42^2 + 2 (2 + ln 8) / 6 = 3.38
+    # against 1.77^2 + 2 (1 + ln 8) / 6 = 4.16 (issue 21's draw 1126, a rough floor named
+    # a run-out; the parameters' penalty counts: the floor pays for one more)
+    fits = [_fit("wheel_eccentricity", 1.55, 3.44), _fit("ground_roughness", 3.40, 12.90)]
+    fits[0].intervals = {"eccentricity_m": (0.0, 1.0)}
+    fits[1].intervals = {"height_rms_m": (0.0, 1.0), "correlation_length_m": (0.0, 1.0)}
     fits[0].train_error, fits[1].train_error = 1.77, 1.42
     result, named, reason = diagnosis.verdict(7.21, 8.40, fits, noise=0.98, base_train=6.52,
                                               n_train=6)
-    assert (result, named) == ("unexplained", None) and "training runs prefer b" in reason
-    # ... where b's training error leaves a's inside its bound (1.65 sqrt(7/6) = 1.78), a is
-    # named
-    fits[1].train_error = 1.65
+    assert (result, named) == ("unexplained", None)
+    assert "training runs prefer ground_roughness" in reason
+    # ... where the floor's training error is 1.70 its score (4.25) is above the run-out's:
+    # the run-out is named, though its training error is higher
+    fits[1].train_error = 1.70
     result, named, _ = diagnosis.verdict(7.21, 8.40, fits, noise=0.98, base_train=6.52,
                                          n_train=6)
-    assert result == "explained" and named.cause == "a"
+    assert result == "explained" and named.cause == "wheel_eccentricity"
 
 
 def test_gain_counts_the_discrepancy_beyond_the_trial_noise():
