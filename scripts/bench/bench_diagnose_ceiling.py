@@ -293,7 +293,9 @@ def main(argv=None) -> int:
             "causes' fits of its generalisation row: \"with the truth\" says whether it would "
             "be named, and by which rule not; \"diagnose\" is the generalisation benchmark's "
             "outcome.  A random geometry's truth uses its own realisation, which a fit never "
-            "knows (it tries 8): for those rows the ceiling is an upper bound.\n\n" + text + "\n")
+            "knows (it tries 8): for those rows the ceiling is an upper bound.  The training "
+            "rules read the lower of the truth's training error and its cause's fit's (a fit's "
+            "is the lowest of a search, the truth's one simulation).\n\n" + text + "\n")
     return 0
 
 
