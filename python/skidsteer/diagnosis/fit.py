@@ -445,7 +445,7 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     held_error = evaluate.held_out_error(params, realisation, held)
     intervals = {p.name: _interval(evaluate.profile(p.name, params, realisation), len(train), p)
                  for p in fitted}
-    n_params = len(fitted) + (np.log(REALISATIONS) if cause.random_realisation else 0.0)
+    n_params = n_parameters(cause.name, len(fitted))
     return Fit(cause.name, params, cause.main.name, intervals[cause.main.name], train_error,
                held_error, _score(held_error, n_params, len(train)), sim,
                evaluate.profile(cause.main.name, params, realisation),
@@ -557,18 +557,18 @@ def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
-def n_parameters(fit) -> float:
-    """The parameters a fit pays for: each fitted one, and ln(REALISATIONS) for a chosen
-    realisation (a cause with a random geometry; a name not in the registry, a test's
-    stand-in, has none)."""
-    cause = cause_registry.CAUSES.get(fit.cause)
-    random = cause is not None and cause.random_realisation
-    return len(fit.fitted) + (np.log(REALISATIONS) if random else 0.0)
+def n_parameters(cause: str, n_fitted: int) -> float:
+    """The parameters a fit of `cause` pays for (_score): its n_fitted fitted ones, and
+    ln(REALISATIONS) for a chosen realisation (a cause with a random geometry; a name not
+    in the registry, a test's stand-in, has none)."""
+    registered = cause_registry.CAUSES.get(cause)
+    random = registered is not None and registered.random_realisation
+    return n_fitted + (np.log(REALISATIONS) if random else 0.0)
 
 
 def training_score(fit, n_train: int) -> float:
     """The fit's training error scored as its held-out error is (_score)."""
-    return _score(fit.train_error, n_parameters(fit), n_train)
+    return _score(fit.train_error, n_parameters(fit.cause, len(fit.fitted)), n_train)
 
 
 def preferred_in_training(best, others: list, n_train: int):
@@ -674,8 +674,7 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
         return None
     comparison, train = evaluate.comparison, evaluate.train
     held_error = evaluate.held_out_over_starts(sim, factory, held)
-    n_params = len(first.fitted) + len(second.fitted) + sum(
-        np.log(REALISATIONS) for f in (first, second) if f.realisation is not None)
+    n_params = sum(n_parameters(f.cause, len(f.fitted)) for f in (first, second))
     score = _score(held_error, n_params, len(train))
     return {"causes": [first.cause, second.cause],
             "parameters": {first.cause: first.parameters, second.cause: second.parameters},
