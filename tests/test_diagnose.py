@@ -330,6 +330,29 @@ def test_a_floor_fit_starts_from_the_best_of_a_roughness_design():
     _assert_within_the_fine_step(found, truth, "ground_roughness")
 
 
+def test_one_seed_is_one_floor_at_every_correlation_length():
+    # The fit probes the correlation length with its chosen realisation (seed) held, so
+    # a seed must be the same bumps smoothed more or less, not another floor.  Gaussian
+    # filters of widths s1, s2 over one white field correlate at 2 s1 s2 / (s1^2 + s2^2)
+    # in two dimensions: 0.984 for 0.05 m against 0.06 m, 0.6 for 0.05 m against 0.15 m;
+    # 0.95 and 0.5 leave room for the kernels' truncation and the subsampling.  Another
+    # seed is another floor (independent fields: correlation ~0, |r| < 0.1 for 10^4
+    # and more samples).
+    from skidsteer.diagnosis.causes.ground_roughness import surface
+
+    def shared(a, b):  # the two grids' common points (both sample the 3 m square's 600
+        # fine steps, every 600 / (n - 1)-th)
+        strides = [600 // (len(x) - 1) for x in (a, b)]
+        common = int(np.lcm(*strides))
+        return [x[::common // k, ::common // k].ravel() for x, k in zip((a, b), strides)]
+
+    floor = surface(3e-4, 0.05, 1.5, seed=3)
+    assert floor.std() == pytest.approx(3e-4) and abs(floor.mean()) < 1e-12
+    assert np.corrcoef(*shared(floor, surface(3e-4, 0.06, 1.5, seed=3)))[0, 1] > 0.95
+    assert np.corrcoef(*shared(floor, surface(3e-4, 0.15, 1.5, seed=3)))[0, 1] > 0.5
+    assert abs(np.corrcoef(floor.ravel(), surface(3e-4, 0.05, 1.5, seed=4).ravel())[0, 1]) < 0.1
+
+
 def test_a_cause_whose_design_beats_its_main_fit_is_refined_whatever_its_rank():
     fits = [_fit(name, held) for name, held in (("a", 1.5), ("b", 1.8), ("c", 2.0), ("d", 2.2))]
     assert contenders(fits) == list(range(REFINE_CONTENDERS))

@@ -22,20 +22,36 @@ CORRELATION_LENGTH = Parameter(
     source="assumed: undulations of a few tile or tread widths; the lower bound is the tire's "
            "contact patch (the plugin samples the floor at one point)")
 HALF_SIZE_M = 1.5  # the swivel stays within 0.3 m of the start; straight runs need the command
-GRID_PER_CORRELATION = 4  # samples per correlation length
+GRID_PER_CORRELATION = 4  # samples per correlation length (at least)
+# The white noise is drawn once per seed on the grid the shortest correlation length
+# needs (the prior's low end / GRID_PER_CORRELATION = 5 mm) and filtered to each
+# correlation length there, so one seed is one floor at every correlation length (the
+# same bumps, smoothed more or less), and the fit's probes and profile in the correlation
+# length compare one floor, not unrelated ones (a grid of correlation length / 4 per
+# draw made every correlation length another floor: stop 35's note).
+FINE_STEP_M = CORRELATION_LENGTH.low / GRID_PER_CORRELATION
 
 
 def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float,
             seed: int) -> np.ndarray:
-    """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m."""
-    step = correlation_length_m / GRID_PER_CORRELATION
-    n = int(np.ceil(2 * half_size_m / step)) + 1
-    if n > 2001:
+    """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m,
+    a Gaussian filter of width correlation_length_m / sqrt(2) over white noise drawn
+    from the seed on a FINE_STEP_M grid, kept at every k-th sample (k the largest
+    whole number of fine steps that divides the side and keeps GRID_PER_CORRELATION
+    samples per correlation length)."""
+    intervals = int(np.ceil(2 * half_size_m / FINE_STEP_M))
+    if intervals + 1 > 2001:
         raise NotApplicable(f"ground_roughness: a {2 * half_size_m:g} m floor at "
-                            f"{step * 1e3:.1f} mm needs {n}x{n} samples (more than 2001^2)")
-    white = np.random.default_rng(seed).standard_normal((n, n))
-    field = ndimage.gaussian_filter(white, GRID_PER_CORRELATION / np.sqrt(2), mode="wrap")
-    field -= field.mean()
+                            f"{FINE_STEP_M * 1e3:.1f} mm needs {intervals + 1}^2 samples "
+                            "(more than 2001^2)")
+    fine_step_m = 2 * half_size_m / intervals
+    white = np.random.default_rng(seed).standard_normal((intervals + 1, intervals + 1))
+    field = ndimage.gaussian_filter(white, correlation_length_m / np.sqrt(2) / fine_step_m,
+                                    mode="wrap")
+    widest = max(1, int(correlation_length_m / GRID_PER_CORRELATION / fine_step_m))
+    stride = max(k for k in range(1, widest + 1) if intervals % k == 0)
+    field = field[::stride, ::stride]
+    field = field - field.mean()
     return field * (height_rms_m / field.std())
 
 
