@@ -31,7 +31,10 @@ arguments, resumes.  The datasets and a shared simulation cache live under
 docs/diagnose-generalisation.jsonl (a few kB), so that a run on another machine
 extends the table rather than starting it again; ``--rerun CASE`` runs a case again
 with the code as it is (the table shows a case's newest row and says how many it
-replaces).  A long run, not CI: CI keeps the
+replaces).  Each row records the code it ran (``code``); a dataset is regenerated from
+its seed by the code as it is, so a rough floor's dataset of a row before a86cf90 (one
+floor at every correlation length, ground_roughness.surface) comes back as another
+realisation of the same parameters.  A long run, not CI: CI keeps the
 fixed hidden-effect subset of tests/test_diagnose.py.
 
     python scripts/bench/bench_diagnose_generalisation.py --datasets 40 --out /tmp/gen \

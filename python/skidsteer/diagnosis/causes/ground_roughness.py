@@ -3,8 +3,9 @@
 The cause replaces the floor plane by a heightfield under the tire law (the
 plugin reads heightfields, plugin/tire/README.md): a Gaussian random surface
 of the given RMS height and correlation length (a Gaussian-filtered white
-field), its realisation picked by the seed.  It covers the square the robot
-swivels and drives in.
+field), its realisation picked by the seed: one seed is one floor at every
+correlation length (surface).  It covers the square the robot swivels and drives
+in.
 """
 
 import mujoco
