@@ -338,11 +338,13 @@ def test_one_seed_is_one_floor_at_every_correlation_length():
     # 0.95 and 0.5 leave room for the kernels' truncation and the subsampling.  Another
     # seed is another floor (independent fields: correlation ~0, |r| < 0.1 for 10^4
     # and more samples).
-    from skidsteer.diagnosis.causes.ground_roughness import surface
+    from skidsteer.diagnosis.causes.ground_roughness import FINE_STEP_M, surface
 
-    def shared(a, b):  # the two grids' common points (both sample the 3 m square's 600
-        # fine steps, every 600 / (n - 1)-th)
-        strides = [600 // (len(x) - 1) for x in (a, b)]
+    fine_steps = round(2 * 1.5 / FINE_STEP_M)  # the 3 m square's fine grid
+
+    def shared(a, b):  # the two grids' common points (each keeps every
+        # fine_steps / (n - 1)-th fine sample)
+        strides = [fine_steps // (len(x) - 1) for x in (a, b)]
         common = int(np.lcm(*strides))
         return [x[::common // k, ::common // k].ravel() for x, k in zip((a, b), strides)]
 

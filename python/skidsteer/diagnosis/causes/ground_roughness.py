@@ -28,8 +28,8 @@ GRID_PER_CORRELATION = 4  # samples per correlation length (at least)
 # needs (the prior's low end / GRID_PER_CORRELATION = 5 mm) and filtered to each
 # correlation length there, so one seed is one floor at every correlation length (the
 # same bumps, smoothed more or less), and the fit's probes and profile in the correlation
-# length compare one floor, not unrelated ones (a grid of correlation length / 4 per
-# draw made every correlation length another floor: stop 35's note).
+# length compare one floor, not unrelated ones (until a86cf90 the noise was drawn on a
+# grid of correlation length / 4, so every correlation length was another floor).
 FINE_STEP_M = CORRELATION_LENGTH.low / GRID_PER_CORRELATION
 
 
