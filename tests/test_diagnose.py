@@ -338,9 +338,10 @@ def test_one_seed_is_one_floor_at_every_correlation_length():
     # 0.95 and 0.5 leave room for the kernels' truncation and the subsampling.  Another
     # seed is another floor (independent fields: correlation ~0, |r| < 0.1 for 10^4
     # and more samples).
-    from skidsteer.diagnosis.causes.ground_roughness import FINE_STEP_M, surface
+    from skidsteer.diagnosis.causes.ground_roughness import fine_intervals, surface
 
-    fine_steps = round(2 * 1.5 / FINE_STEP_M)  # the 3 m square's fine grid
+    half_m = 1.5  # a 3 m square
+    fine_steps = fine_intervals(half_m)
 
     def shared(a, b):  # the two grids' common points (each keeps every
         # fine_steps / (n - 1)-th fine sample)
@@ -348,11 +349,11 @@ def test_one_seed_is_one_floor_at_every_correlation_length():
         common = int(np.lcm(*strides))
         return [x[::common // k, ::common // k].ravel() for x, k in zip((a, b), strides)]
 
-    floor = surface(3e-4, 0.05, 1.5, seed=3)
+    floor = surface(3e-4, 0.05, half_m, seed=3)
     assert floor.std() == pytest.approx(3e-4) and abs(floor.mean()) < 1e-12
-    assert np.corrcoef(*shared(floor, surface(3e-4, 0.06, 1.5, seed=3)))[0, 1] > 0.95
-    assert np.corrcoef(*shared(floor, surface(3e-4, 0.15, 1.5, seed=3)))[0, 1] > 0.5
-    assert abs(np.corrcoef(floor.ravel(), surface(3e-4, 0.05, 1.5, seed=4).ravel())[0, 1]) < 0.1
+    assert np.corrcoef(*shared(floor, surface(3e-4, 0.06, half_m, seed=3)))[0, 1] > 0.95
+    assert np.corrcoef(*shared(floor, surface(3e-4, 0.15, half_m, seed=3)))[0, 1] > 0.5
+    assert abs(np.corrcoef(floor.ravel(), surface(3e-4, 0.05, half_m, seed=4).ravel())[0, 1]) < 0.1
 
 
 def test_a_cause_whose_design_beats_its_main_fit_is_refined_whatever_its_rank():

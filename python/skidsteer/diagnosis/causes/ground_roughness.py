@@ -33,6 +33,11 @@ GRID_PER_CORRELATION = 4  # samples per correlation length (at least)
 FINE_STEP_M = CORRELATION_LENGTH.low / GRID_PER_CORRELATION
 
 
+def fine_intervals(half_size_m: float) -> int:
+    """The fine grid's steps across a floor's side (at most FINE_STEP_M each)."""
+    return int(np.ceil(2 * half_size_m / FINE_STEP_M))
+
+
 def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float,
             seed: int) -> np.ndarray:
     """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m,
@@ -40,7 +45,7 @@ def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float
     from the seed on a FINE_STEP_M grid, kept at every k-th sample (k the largest
     whole number of fine steps that divides the side and keeps GRID_PER_CORRELATION
     samples per correlation length)."""
-    intervals = int(np.ceil(2 * half_size_m / FINE_STEP_M))
+    intervals = fine_intervals(half_size_m)
     if intervals + 1 > 2001:
         raise NotApplicable(f"ground_roughness: a {2 * half_size_m:g} m floor at "
                             f"{FINE_STEP_M * 1e3:.1f} mm needs {intervals + 1}^2 samples "
