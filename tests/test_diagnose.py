@@ -422,17 +422,36 @@ def test_repeat_trials_start_where_a_swivel_left_the_robot():
 def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
     # the verdict's errors are medians over STARTS simulated starts: start 0 is the robot
     # at rest as built (what one simulation always was), start k > 0 a repeat-trial start
-    # of its own; the cache must not hand one start's run out for another's
+    # of its own, drawn as synth draws a dataset's trials (another yaw and wheel angle,
+    # and the tires' residual deflections: without them the starts on a flat floor are
+    # copies); the cache must not hand one start's run out for another's
     from skidsteer.data.dataset import Group
-    from skidsteer.diagnosis.comparison import model_factory, simulate_groups, start_state
+    from skidsteer.diagnosis.comparison import (START_SEED, model_factory, simulate_groups,
+                                                start_state)
+    from skidsteer.robot import tire
     from skidsteer.simulation.cache import SimulationCache
+    from skidsteer.simulation.run import TRIAL_DEFLECTION_M, trial_start
 
     m = load_model()
-    turned = mujoco.MjData(m)
-    mujoco.mj_setState(m, turned, start_state(m, 1, settle_s=0.5), FULLPHYSICS)
-    at_rest = mujoco.MjData(m)
-    mujoco.mj_setState(m, at_rest, start_state(m, 0, settle_s=0.5), FULLPHYSICS)
+
+    def started(state):
+        d = mujoco.MjData(m)
+        mujoco.mj_setState(m, d, state, FULLPHYSICS)
+        return d, tire.TireState(m, d.plugin_state, tire.instance_id(m))
+
+    (turned, turned_tires), (at_rest, _) = (started(start_state(m, k, settle_s=0.5))
+                                            for k in (1, 0))
     assert np.abs(turned.qpos[:7] - at_rest.qpos[:7]).max() > 0.01  # another yaw at least
+    bare, bare_tires = started(trial_start(m, np.random.default_rng([START_SEED, 1]), 0.5))
+    np.testing.assert_array_equal(bare.qpos, turned.qpos)  # that draw's yaw and wheel angle
+    # one N(0, 0.1 mm) draw per wheel and direction: the largest of 8 is above 0.1 sigma
+    # unless all 8 fall inside +-0.1 sigma (probability 0.08^8), and below 5 sigma
+    moved = np.abs(turned_tires.deflection - bare_tires.deflection).max()
+    assert 0.1 * TRIAL_DEFLECTION_M < moved < 5 * TRIAL_DEFLECTION_M
+    np.testing.assert_array_equal(turned_tires.velocity, bare_tires.velocity)  # only the
+    np.testing.assert_array_equal(turned_tires.stuck, bare_tires.stuck)  # deflections drawn
+    again, _ = started(start_state(m, 1, settle_s=0.5))
+    np.testing.assert_array_equal(again.plugin_state, turned.plugin_state)  # seeded
     factory, group = model_factory(), Group(0.0, 30.0, Setup())
     cache = SimulationCache(tmp_path)
     default, first = simulate_groups([(factory, [group])] * 2, 8.0, starts=[0, 1], cache=cache)

@@ -24,7 +24,7 @@ from skidsteer.robot import Setup, load_model, roles
 from skidsteer.simulation.backends import LocalBackend
 from skidsteer.simulation.cache import model_digest
 from skidsteer.simulation.drive import DriveGeometry
-from skidsteer.simulation.run import run_from_settled, settle, trial_start
+from skidsteer.simulation.run import perturbed, run_from_settled, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
 # The smallest spread a log10 band power is credited with: a Welch estimate of a
@@ -181,12 +181,20 @@ ModelFactory = Callable[[Setup], mujoco.MjModel]
 
 
 def start_state(m: mujoco.MjModel, start: int, settle_s: float = 2.0) -> np.ndarray:
-    """A simulation's settled start: 0, the robot at rest as built; k > 0, trial_start's
-    draw k (another yaw and wheel angle, as a repeat trial starts; seeded apart from
-    any dataset's trials by START_SEED)."""
+    """A simulation's settled start: 0, the robot at rest as built; k > 0, a repeat
+    trial's start drawn as synth draws a dataset's trials: trial_start's draw k (another
+    yaw and wheel angle) with perturbed's residual tire deflections (seeded apart from
+    any dataset's trials by START_SEED).
+
+    The deflections matter: on a flat floor with round wheels the yaw and wheel angle
+    change nothing physical, so starts without them are copies of one simulation up to
+    roundoff (issue 21's draw-1175: a 2e-9 change of lambda_max moved all five held-out
+    starts from one regime to another together); with them the starts are independent
+    draws of the model's run-to-run scatter, as the trials they are compared with are."""
     if start == 0:
         return settle(m, mujoco.MjData(m), settle_s)
-    return trial_start(m, np.random.default_rng([START_SEED, int(start)]), settle_s)
+    turned = trial_start(m, np.random.default_rng([START_SEED, int(start)]), settle_s)
+    return perturbed(m, turned, [START_SEED, int(start), 2])
 
 
 def simulate_groups(jobs: list[tuple[ModelFactory, list[Group]]], duration_s: float,

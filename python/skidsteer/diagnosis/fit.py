@@ -110,7 +110,9 @@ PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs); choosing on
 # realisations counts as ln N parameters (its description length in nats)
 # The errors the verdict reads (the base model's, every fit's held-out error, the pair's)
 # are the median over STARTS simulations of each command, from comparison.start_state
-# 0..STARTS-1: the robot at rest, then repeat-trial starts (another yaw and wheel angle).
+# 0..STARTS-1: the robot at rest, then repeat-trial starts drawn as a dataset's trials are
+# (another yaw and wheel angle, and residual tire deflections: without these, issue 21's
+# draw-1175 showed, the starts on a flat floor are copies and share one regime).
 # One simulation is one draw of the model's run-to-run scatter, which on a stick-slip
 # floor is not small: issue 21's draw-1071 (a 28 Hz sensor mount on carpet, held-out
 # 20 deg/s; damping 0.034) scored 3.58 at 27.98 Hz and 1.52 at 27.99 from rest, and at 27.98 Hz

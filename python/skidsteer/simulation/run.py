@@ -7,6 +7,7 @@ between phases is mjSTATE_FULLPHYSICS, which includes the tire plugin's state.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import mujoco
 import mujoco.rollout
@@ -156,10 +157,12 @@ def run_commanded(m: mujoco.MjModel, v_mps: float, omega_deg_s: float, duration_
 TRIAL_DEFLECTION_M = 1e-4  # assumed: 0.1 mm of tire deflection left over from placing the robot
 
 
-def perturbed(m: mujoco.MjModel, state: np.ndarray, seed: int | None) -> np.ndarray:
+def perturbed(m: mujoco.MjModel, state: np.ndarray, seed: int | Sequence[int] | None
+              ) -> np.ndarray:
     """A repeat trial's initial state: the settled state plus random residual tire
     deflections (N(0, TRIAL_DEFLECTION_M) per wheel and direction), the way a robot
-    put down by hand never starts twice from the same tire state.  seed None: as is."""
+    put down by hand never starts twice from the same tire state.  seed: an int or a
+    sequence of ints (numpy's default_rng); None: as is."""
     if seed is None:
         return state
     d = mujoco.MjData(m)
