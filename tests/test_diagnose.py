@@ -29,7 +29,7 @@ import skidsteer  # noqa: F401
 from skidsteer import diagnosis
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
-                                            simulate_group, wheel_rates_hz)
+                                            model_factory, simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (REFINE_CONTENDERS, REFINE_STEPS, STARTS, _interval,
                                      contenders, fit_every_parameter, median_error,
@@ -426,7 +426,7 @@ def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
     # and the tires' residual deflections: without them the starts on a flat floor are
     # copies); the cache must not hand one start's run out for another's
     from skidsteer.data.dataset import Group
-    from skidsteer.diagnosis.comparison import (START_SEED, model_factory, simulate_groups,
+    from skidsteer.diagnosis.comparison import (START_SEED, simulate_groups,
                                                 start_state)
     from skidsteer.robot import tire
     from skidsteer.simulation.cache import SimulationCache
@@ -466,6 +466,39 @@ def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
     assert np.array_equal(stored[1].features, default.features, equal_nan=True)
     with pytest.raises(ValueError, match="2 starts for 1 jobs"):
         simulate_groups([(factory, [group])], 8.0, starts=[0, 1])
+
+
+def test_the_search_reads_the_median_over_its_starts(tmp_path):
+    # diagnose --search-starts N: a fit's training error is the median over starts
+    # 0..N-1 (as the held-out error is over STARTS), the simulation it keeps is start 0's;
+    # N = 1 (the default) is the start from rest alone, the search as it always was
+    from skidsteer.data.dataset import Group
+    from skidsteer.diagnosis.comparison import simulate_groups
+    from skidsteer.diagnosis.fit import FIT_SEED, _Evaluations
+    from skidsteer.simulation.backends import LocalBackend
+    from skidsteer.simulation.cache import SimulationCache
+
+    slip = causes.get("slip_lambda_max")
+    groups = [Group(0.0, 30.0, Setup()), Group(0.0, 45.0, Setup())]
+    params = slip.parameters(float(slip.main.from_unit(0.5)))
+    factory = model_factory(slip.edit(params, FIT_SEED), None)
+    starts = simulate_groups([(factory, groups)] * 3, 8.0, starts=[0, 1, 2])
+    # "measured": two runs per command, the three starts' features scaled a little
+    rng = np.random.default_rng(5)
+    measured = np.concatenate([s.features * np.exp(rng.normal(0, 0.05, s.features.shape))
+                               for s in starts[:2]])[[0, 2, 1, 3]]
+    comp = Comparison(dataclasses.replace(_observed(measured, [0, 0, 1, 1]), groups=groups))
+    train = np.arange(4)
+    per_start = [comp.error(s.features, train) for s in starts]
+    assert len(set(per_start)) == 3  # the starts differ, so the median is one of them
+    cache = SimulationCache(tmp_path)
+    for n in (1, 3):
+        evaluate = _Evaluations(slip, comp, groups, 8.0, train, None, SensorChain(),
+                                LocalBackend(2), None, cache, n)
+        assert evaluate([(params, FIT_SEED)]) == [float(np.median(per_start[:n]))]
+        kept = evaluate.best(FIT_SEED)[2]
+        assert np.array_equal(kept.features, starts[0].features, equal_nan=True)
+    assert cache.stores == 3 * len(groups)  # start 0 simulated once, reused by N = 3
 
 
 def test_the_error_over_starts_is_not_moved_by_one_start_in_another_regime():

@@ -22,6 +22,7 @@ from skidsteer.data.dataset import run_file_name
 from skidsteer.data.files import write_atomically
 from skidsteer.data.imu import is_imu_folder
 from skidsteer.data.recording import DataError, write_run
+from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS
 from skidsteer.experiments.free_response import FREE_RESPONSE_AXES, free_response
 from skidsteer.experiments.pull import pull
 from skidsteer.experiments.rest import tire_loads
@@ -312,9 +313,13 @@ def _print_verdict(result: dict, *more: str) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     if is_imu_folder(args.dataset):
+        if args.search_starts != SEARCH_STARTS:
+            print(f"skidsteer: --search-starts applies to a dataset's fits; {args.dataset} "
+                  "holds real recordings, whose diagnosis fits no causes", file=sys.stderr)
+            return 2
         return _diagnose_recordings(args)
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
-                                   cache_dir=args.cache)
+                                   cache_dir=args.cache, search_starts=args.search_starts)
     if result is None:
         return code
     g = result["gain"]
@@ -500,6 +505,11 @@ def build_parser() -> argparse.ArgumentParser:
                            help="keep finished simulations here (default: OUT/.skidsteer-cache)"
                                 "; a rerun resumes from them, and diagnoses of several datasets "
                                 "of one robot can share one")
+            p.add_argument("--search-starts", type=int, default=SEARCH_STARTS, metavar="N",
+                           choices=range(1, STARTS + 1),
+                           help="a fit's training error is the median over N simulated "
+                                f"starts (1-{STARTS}; default {SEARCH_STARTS}: from rest only); "
+                                "smoother, and the search costs N times the simulations")
         _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

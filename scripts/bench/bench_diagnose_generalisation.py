@@ -59,6 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
+from skidsteer.diagnosis.fit import SEARCH_STARTS  # noqa: E402
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
@@ -146,13 +147,14 @@ def case_of(row: dict) -> dict:
             "params": FIXED.get(row["case"], {}).get("params")}
 
 
-def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
+def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
+             search_starts: int = SEARCH_STARTS) -> dict:
     data = out / "datasets" / case["case"]
     started = time.perf_counter()
     truth = generate(case, out, trials, duration_s, threads)
     generated_s = time.perf_counter() - started
     result = diagnose(data, None, nthread=threads, progress=True,
-                      cache_dir=out / "simulations")
+                      cache_dir=out / "simulations", search_starts=search_starts)
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
@@ -172,7 +174,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
                                result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
             # the code that diagnosed it (a resumed run may mix versions: the report says)
-            "code": code_fingerprint()[:12]}
+            "code": code_fingerprint()[:12], "search_starts": search_starts}
 
 
 def _recovery(row: dict) -> str:
@@ -253,6 +255,8 @@ def main(argv=None) -> int:
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--duration", type=float, default=20.0, help="record length, s")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--search-starts", type=int, default=SEARCH_STARTS, help="diagnose's "
+                    "search_starts (the rows record it; the table's rows use the default)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -274,7 +278,8 @@ def main(argv=None) -> int:
             if (case["case"] in done and case["case"] not in rerun) or (
                     args.only and case["case"] not in args.only):
                 continue
-            row = run_case(case, args.out, args.trials, args.duration, args.threads)
+            row = run_case(case, args.out, args.trials, args.duration, args.threads,
+                           args.search_starts)
             done[row["case"]] = row
             with open(results, "a") as f:
                 f.write(json.dumps(row) + "\n")

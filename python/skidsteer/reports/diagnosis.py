@@ -25,8 +25,8 @@ from skidsteer.data.files import begin_outputs, finish_outputs, write_json, writ
 from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
                                             model_factory, simulate_groups)
-from skidsteer.diagnosis.fit import (STARTS, Z_CONSISTENT, diagnose_observed, median_error,
-                                     over_starts, simulations_planned)
+from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
+                                     median_error, over_starts, simulations_planned)
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
                                         steady_summary, steady_window)
@@ -68,7 +68,8 @@ def _model_label(model: str | None) -> str:
 def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
-             figures: bool = True, backend=None, cache_dir=None) -> dict:
+             figures: bool = True, backend=None, cache_dir=None,
+             search_starts: int = SEARCH_STARTS) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
     extended model to out_dir when given.  Returns the diagnosis.
 
@@ -80,6 +81,9 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     out_dir/.skidsteer-cache, none without out_dir), so that a killed diagnosis,
     rerun, resumes where it stopped and reaches the same numbers, and diagnoses of
     several datasets of one robot share their simulations.
+
+    search_starts: the simulated starts a fit's training error is the median over
+    (diagnosis.fit.SEARCH_STARTS; more is smoother and costs as many times the search).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -92,14 +96,14 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
                       f"; finished simulations are kept in {cache_dir}, and the same command "
                       "rerun resumes from them")
     names = candidates or sorted(cause_registry.CAUSES)
-    bar = _Progress(simulations_planned(names, observed), progress,
+    bar = _Progress(simulations_planned(names, observed, search_starts), progress,
                     "diagnose")
     try:
         # a report plots the base model: its time series are needed, so with out_dir
         # it is always simulated (a twentieth of a diagnosis)
         found = diagnose_observed(observed, names, timestep=timestep, chain=chain,
                                   backend=backend, progress=bar, cache=stored,
-                                  signals=out_dir is not None)
+                                  signals=out_dir is not None, search_starts=search_starts)
     finally:
         bar.close()
     summary = found.summary()
