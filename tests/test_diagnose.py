@@ -714,6 +714,7 @@ def test_diagnose_writes_its_outputs(written):
         assert key in saved
     assert set(saved["gain"]) >= {"metric", "baseline_error", "extended_error",
                                   "relative_reduction"}
+    assert saved["search_starts"] == 1  # the default: the search reads the start from rest
     assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
     assert "broken.csv" in saved["skipped_runs"][0]["reason"]
     assert (out / "report.md").read_text().count("figures/") == 2
@@ -793,6 +794,7 @@ def test_compare_writes_its_result_last_and_leaves_no_marker(written, tmp_path):
     summary = compare(data, out, progress=False, figures=False)
     saved = json.loads((out / "comparison.json").read_text())
     assert "stale" not in saved and saved["verdict"] == summary["verdict"] == "discrepancy"
+    assert saved["search_starts"] == 1  # the default: the search reads the start from rest
     assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
     assert (out / "report.md").is_file() and not (out / INCOMPLETE_MARKER).exists()
 

@@ -508,8 +508,9 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--search-starts", type=int, default=SEARCH_STARTS, metavar="N",
                            choices=range(1, STARTS + 1),
                            help="a fit's training error is the median over N simulated "
-                                f"starts (1-{STARTS}; default {SEARCH_STARTS}: from rest only); "
-                                "smoother, and the search costs N times the simulations")
+                                f"starts (1-{STARTS}; default {SEARCH_STARTS}: from rest only): "
+                                "a guard against one start in a rare regime, at N times the "
+                                "search's simulations")
         _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

@@ -83,7 +83,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     several datasets of one robot share their simulations.
 
     search_starts: the simulated starts a fit's training error is the median over
-    (diagnosis.fit.SEARCH_STARTS; more is smoother and costs as many times the search).
+    (diagnosis.fit.SEARCH_STARTS; the search costs as many times the simulations).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -112,6 +112,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     summary["simulations"] = ({"simulated": stored.stores, "reused": stored.hits,
                                "cache": str(stored.root)} if stored else None)
     summary["platform"] = numeric_platform()
+    summary["search_starts"] = search_starts
     summary["wall_time_s"] = round(time.time() - started, 1)
     if out_dir is not None:
         write_diagnosis(Path(out_dir), summary, found, timestep, figures)
