@@ -59,7 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
-from skidsteer.diagnosis.fit import SEARCH_STARTS  # noqa: E402
+from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS  # noqa: E402
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
@@ -174,7 +174,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
                                result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
             # the code that diagnosed it (a resumed run may mix versions: the report says)
-            "code": code_fingerprint()[:12], "search_starts": search_starts}
+            "code": code_fingerprint()[:12], "search_starts": result["search_starts"]}
 
 
 def _recovery(row: dict) -> str:
@@ -255,7 +255,8 @@ def main(argv=None) -> int:
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--duration", type=float, default=20.0, help="record length, s")
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--search-starts", type=int, default=SEARCH_STARTS, help="diagnose's "
+    ap.add_argument("--search-starts", type=int, default=SEARCH_STARTS,
+                    choices=range(1, STARTS + 1), help="diagnose's "
                     "search_starts (the rows record it; the table's rows use the default)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
