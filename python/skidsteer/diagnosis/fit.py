@@ -127,10 +127,11 @@ PARAMETER_PENALTY = 2.0  # AIC: score = E^2 + 2 k / (training runs); choosing on
 # search (the training errors) reads one start: STARTS times the simulations otherwise.
 STARTS = 5
 # The starts the search's training error is the median over (starts 0..SEARCH_STARTS-1;
-# diagnose --search-starts).  1, the start from rest only, is the default: 5 made issue
-# 21's diagnoses of draws 1121 and 1166 6.6x slower (1765 s, 2006 s; 1121 named right,
-# 1166 not), and on 25 values of their slip fit's parameter the median over 5 starts is
-# within 0.1 of the start from rest at 21 (1121) and 19 (1166): there the search was
+# diagnose --search-starts).  1, the start from rest only, is the default: 5 plans 4.4x
+# the simulations of issue 21's diagnoses (1807 against 415; 1765 s and 2006 s for draws
+# 1121 and 1166, 1121 named right, as it is with 1, and 1166 not), and on 25 values of
+# their slip fit's parameter the median over 5 starts is within 0.1 of the start from
+# rest at 21 (1121) and 19 (1166): there the search was
 # limited by its grid and its 4 Brent steps, not by one start (README).  More starts
 # guard a search against a point whose start from rest falls in a rare regime (issue
 # 21's draw 1174: the truth scored 2.86 from rest, 1.41-1.73 from the 4 other starts).
