@@ -31,7 +31,8 @@ from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
                                             model_factory, simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.fit import (REFINE_CONTENDERS, REFINE_STEPS, STARTS, _interval,
+from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
+                                     REFINE_STEPS, STARTS, _interval,
                                      contenders, fit_every_parameter, median_error,
                                      refine_parameters)
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
@@ -745,9 +746,12 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     from skidsteer.simulation.cache import CACHE_DIR
 
     data, whole, whole_result = written
-    # the base model on the 3 commands from STARTS starts, 9 fit points (5 grid, 4 Brent)
-    # on the 2 training commands, the fit's end on the held-out one from STARTS starts
-    simulated = 3 * STARTS + 9 * 2 + STARTS
+    # the base model on the 3 commands from STARTS starts, the fit's points (5 grid, then
+    # Brent to its tolerance) on the 2 training commands, the fit's end on the held-out
+    # one from STARTS starts
+    points = len(whole_result["ranking"][0]["profile"])
+    assert GRID_POINTS < points <= GRID_POINTS + REFINE_MAX_STEPS
+    simulated = 3 * STARTS + points * 2 + STARTS
     assert whole_result["simulations"] == {"simulated": simulated, "reused": 0,
                                            "cache": str(whole / CACHE_DIR)}
     out = tmp_path / "out"

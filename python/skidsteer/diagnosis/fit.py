@@ -47,8 +47,19 @@ from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, mod
 from skidsteer.simulation.sensor_chain import SensorChain
 
 GRID_POINTS = 5  # across the prior, at the centres of 5 equal slices (log or linear)
-REFINE_ITERATIONS = 4  # bounded Brent between the best grid point's neighbours
-REFINE_TOL_UNIT = 0.01  # in prior coordinates: 1 % of the prior's (log) range
+# bounded Brent between the best grid point's neighbours, run until it brackets the
+# minimum to REFINE_TOL_UNIT (in prior coordinates: 1 % of the prior's (log) range; for
+# slip's 0.003-1 a factor 1.06, finer than the narrowest valley measured, 14 % wide on
+# draw 1121).  A fixed budget of 4 steps stopped short of it: on draw 1166 the 4th step
+# left the slip fit at 0.0088 on the valley's shoulder, 1.36x the truth (stop 39).
+REFINE_TOL_UNIT = 0.01
+# a guard, not a budget: on 900 made-up objectives over the grid's brackets (smooth,
+# rippled, stepped with noise; scipy's bounded method at this tolerance) Brent took 5-12
+# steps, median 6-8
+REFINE_MAX_STEPS = 25
+# the steps a progress bar plans per Brent search (the made-up objectives' median); the
+# bar's total is a plan, not a bound
+REFINE_STEPS_PLANNED = 8
 # every parameter's fit (refine_parameters): probe steps in prior coordinates, a coarse
 # pass then a fine one (assumed: a quarter of the prior finds the basin a grid of 5 on
 # the main parameter would, a tenth resolves it to about the recovery factors' width)
@@ -132,7 +143,7 @@ STARTS = 5
 # 1121 and 1166, 1121 named right, as it is with 1, and 1166 not), and on 25 values of
 # their slip fit's parameter the median over 5 starts is within 0.1 of the start from
 # rest at 21 (1121) and 19 (1166): there the search was
-# limited by its grid and its 4 Brent steps, not by one start (README).  More starts
+# limited by its grid and its Brent steps (then 4), not by one start (README).  More starts
 # guard a search against a point whose start from rest falls in a rare regime (issue
 # 21's draw 1174: the truth scored 2.86 from rest, 1.41-1.73 from the 4 other starts).
 SEARCH_STARTS = 1
@@ -392,7 +403,7 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
             value, bracket = grid_search(realisation)
     optimize.minimize_scalar(lambda u: evaluate([at_main(main.from_unit(u), realisation)])[0],
                              bounds=bracket, method="bounded",
-                             options={"xatol": REFINE_TOL_UNIT, "maxiter": REFINE_ITERATIONS})
+                             options={"xatol": REFINE_TOL_UNIT, "maxiter": REFINE_MAX_STEPS})
     fit = _result(cause, evaluate, [main], realisation, held)
     fit.realisation_errors = [float(e) for e in errors]
     if cause.design is not None:
@@ -724,7 +735,7 @@ def simulations_planned(names: list[str], observed: Observed,
     by_cost = sorted(candidates, key=refining, reverse=True)
     refined = {c.name for c in by_cost[:REFINE_CONTENDERS]} | {
         c.name for c in candidates if c.design is not None}
-    searched = sum(GRID_POINTS + REFINE_ITERATIONS
+    searched = sum(GRID_POINTS + REFINE_STEPS_PLANNED
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
                    + (refining(c) if c.name in refined else 0) for c in candidates)
@@ -787,7 +798,10 @@ class Diagnosis:
                          "parameters": f.parameters, "fitted": f.fitted,
                          "interval": {k: list(v) for k, v in f.intervals.items()},
                          "realisation": f.realisation,
-                         "realisation_errors": f.realisation_errors}
+                         "realisation_errors": f.realisation_errors,
+                         # the training error along the main parameter through the fit:
+                         # the grid's and Brent's points, [value, error], by value
+                         "profile": [[float(v), float(e)] for v, e in f.evaluations]}
                         for f in self.fits],
             "gain": {
                 "metric": "held-out RMS z-score of the spectral features (start-up and steady "
