@@ -57,8 +57,8 @@ REFINE_TOL_UNIT = 0.01
 # rippled, stepped with noise; scipy's bounded method at this tolerance) Brent took 5-12
 # steps, median 6-8
 REFINE_MAX_STEPS = 25
-# the steps a progress bar plans per Brent search (the made-up objectives' median); the
-# bar's total is a plan, not a bound
+# the steps a progress bar plans per Brent search (the made-up objectives' median; the
+# main job's one-parameter fits took 7-10); the bar's total is a plan, not a bound
 REFINE_STEPS_PLANNED = 8
 # every parameter's fit (refine_parameters): probe steps in prior coordinates, a coarse
 # pass then a fine one (assumed: a quarter of the prior finds the basin a grid of 5 on
@@ -142,9 +142,8 @@ STARTS = 5
 # the simulations of issue 21's diagnoses (1807 against 415; 1765 s and 2006 s for draws
 # 1121 and 1166, 1121 named right, as it is with 1, and 1166 not), and on 25 values of
 # their slip fit's parameter the median over 5 starts is within 0.1 of the start from
-# rest at 21 (1121) and 19 (1166): there the search was
-# limited by its grid and its Brent steps (then 4), not by one start (README).  More starts
-# guard a search against a point whose start from rest falls in a rare regime (issue
+# rest at 21 (1121) and 19 (1166): there the search was limited by its grid and its Brent
+# steps (then 4), not by one start (README).  More starts guard a search against a point whose start from rest falls in a rare regime (issue
 # 21's draw 1174: the truth scored 2.86 from rest, 1.41-1.73 from the 4 other starts).
 SEARCH_STARTS = 1
 
