@@ -45,7 +45,7 @@ from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
 from hidden_effects import (DURATION_S, SECOND_MODULE, SEED, check_named, check_not_wrong,
-                            hidden_diagnoses)
+                            hidden_diagnoses, rivals)
 
 NAMED = ("mast_compliance", "loose_payload", "ground_roughness", "wheel_eccentricity",
          "slip_lambda_max", "friction_levels", "sensor_mount")
@@ -709,6 +709,31 @@ def test_missing_dataset_is_a_clear_error(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def hidden(tmp_path_factory):
     return hidden_diagnoses(tmp_path_factory)
+
+
+def test_the_rivals_are_the_benchmarks_most_frequent_runners_up(tmp_path):
+    # the newest row of a draw counts (draw-2's first row is replaced), the causes
+    # ranked right beside the effect are counted, ties go by name
+    def row(case, effect, ranked):
+        return json.dumps({"case": case, "effect": effect,
+                           "ranking": [{"cause": c} for c in ranked]})
+
+    bench = tmp_path / "bench.jsonl"
+    bench.write_text("\n".join([
+        row("draw-1", "slip_lambda_max", ["slip_lambda_max", "friction_levels", "mast_compliance"]),
+        row("draw-2", "slip_lambda_max", ["mast_compliance", "slip_lambda_max", "sensor_mount"]),
+        row("draw-3", "slip_lambda_max", ["loose_payload", "friction_levels", "slip_lambda_max"]),
+        row("draw-2", "slip_lambda_max", ["loose_payload", "slip_lambda_max"]),
+        row("draw-4", "friction_levels", ["mast_compliance", "friction_levels"]),
+        json.dumps({"case": "draw-5", "effect": "slip_lambda_max"}),  # no ranking kept
+    ]) + "\n")
+    assert rivals("slip_lambda_max", bench, n=1) == ["loose_payload"]
+    assert rivals("slip_lambda_max", bench, n=2) == ["friction_levels", "loose_payload"]
+    with pytest.raises(ValueError, match="fewer than 2 rivals of friction_levels"):
+        rivals("friction_levels", bench, n=2)
+    bench.write_text(bench.read_text() + "{not json\n")
+    with pytest.raises(ValueError, match=r"bench.jsonl:7: not a JSON row"):
+        rivals("slip_lambda_max", bench)
 
 
 def test_nothing_hidden_gives_no_discrepancy(hidden):

@@ -1,7 +1,8 @@
 """diagnose names hidden effects (tests/hidden_effects.py): the second half of them,
 in their own module so that the two pytest workers share the hidden-effect
-diagnoses with tests/test_diagnose.py; among them the wheels' run-out, whose
-once-per-revolution line needs longer records (RECORD_S)."""
+diagnoses with tests/test_diagnose.py, each against its rival (hidden_effects.rivals);
+among them the wheels' run-out, whose once-per-revolution line needs longer records
+(RECORD_S)."""
 
 from __future__ import annotations
 
