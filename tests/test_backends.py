@@ -14,6 +14,7 @@ import importlib.util
 import json
 import os
 import sys
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
@@ -157,12 +158,17 @@ def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
     # chooses one; two candidates, fitted concurrently as on a wide cluster (the
     # decision follows the backend's width, widened here: Ray still runs 2 at a time)
     candidates = ["ground_roughness", "slip_lambda_max"]
-    local = diagnose(slip_dataset, progress=False, candidates=candidates,
-                     backend=LocalBackend(2))
+    # the two diagnoses run side by side: each simulates one command at a time for most
+    # of its searches (76 s and 77 s alone here, one after the other), so together they
+    # keep both cores busy; in turn this test held a pytest worker for 423 s under CI=true
     ray_backend.concurrency, width = 10**6, ray_backend.concurrency
     try:
-        on_ray = diagnose(slip_dataset, progress=False, candidates=candidates,
-                          backend=ray_backend)
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            local = pool.submit(diagnose, slip_dataset, progress=False, candidates=candidates,
+                                backend=LocalBackend(2))
+            on_ray = pool.submit(diagnose, slip_dataset, progress=False,
+                                 candidates=candidates, backend=ray_backend)
+            local, on_ray = local.result(), on_ray.result()
     finally:
         ray_backend.concurrency = width
     for result in (local, on_ray):
