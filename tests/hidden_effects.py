@@ -44,13 +44,11 @@ SECOND_MODULE = ("mast_compliance", "sensor_mount", "slip_lambda_max", "wheel_ec
 # against the OUTSIDE_RIVALS causes most often ranked first on its draws, the ones it
 # could be wrongly named (it must stay unexplained with no other candidate to block
 # them); the null against every candidate (it fits none).  A diagnosis with every
-# candidate for each took CI over its 30 min (stop 40: 31.8 min alone here, 30.7 in
-# pytest; with two rivals each and the rough floor and the outside effect against every
-# candidate, 23.3 min in pytest; with one rival each and the outside effect against
-# every candidate, 20.6 min in pytest and 21.7 with the install, ~30 min on CI by stop
-# 39's ratio of CI's time to this machine's, 1.41); the rates over every candidate on
-# fresh draws are the generalisation benchmark's
-# (scripts/bench/bench_diagnose_generalisation.py, docs/diagnose-generalisation.md).
+# candidate for each took CI over its 30 min (stop 40's code: 31.8 min alone here, about
+# 45 min on CI at stop 39's ratio, 1.41; with one rival each and the outside effect's
+# two, 16.4 min in pytest here); the rates over every candidate on fresh draws are the
+# generalisation benchmark's (scripts/bench/bench_diagnose_generalisation.py,
+# docs/diagnose-generalisation.md).
 EVERY_CANDIDATE = (None,)
 RIVALS = 1
 OUTSIDE_RIVALS = 2
