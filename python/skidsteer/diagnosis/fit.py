@@ -143,8 +143,9 @@ STARTS = 5
 # 1121 and 1166, 1121 named right, as it is with 1, and 1166 not), and on 25 values of
 # their slip fit's parameter the median over 5 starts is within 0.1 of the start from
 # rest at 21 (1121) and 19 (1166): there the search was limited by its grid and its Brent
-# steps (then 4), not by one start (README).  More starts guard a search against a point whose start from rest falls in a rare regime (issue
-# 21's draw 1174: the truth scored 2.86 from rest, 1.41-1.73 from the 4 other starts).
+# steps (then 4), not by one start (README).  More starts guard a search against a point
+# whose start from rest falls in a rare regime (issue 21's draw 1174: the truth scored
+# 2.86 from rest, 1.41-1.73 from the 4 other starts).
 SEARCH_STARTS = 1
 
 
