@@ -1,0 +1,52 @@
+"""The committed benchmark tables are what their scripts make of the committed rows: a
+rerun appended to docs/diagnose-generalisation.jsonl (or docs/diagnose-ceiling.jsonl)
+and not tabulated again fails here, as would a report that no longer reads the rows."""
+
+from __future__ import annotations
+
+import re
+import sys
+
+import pytest
+
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "scripts" / "bench"))
+
+import bench_diagnose_ceiling  # noqa: E402
+import bench_diagnose_generalisation  # noqa: E402
+
+DOCS = REPO / "docs"
+
+
+def _body(markdown: str) -> list[str]:
+    """The table and its summary: from the first table row on, without the line that
+    names the machine the report ran on (the rows record their own code)."""
+    lines = markdown.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("|"))
+    return [line for line in lines[first:] if not line.startswith("Machine:")]
+
+
+def _draws_from(markdown: str) -> list[str]:
+    """The --draws-from the committed table was generated with, as arguments."""
+    found = re.search(r"--draws-from (\d+)", markdown.split("\n\n")[1])
+    return ["--draws-from", found.group(1)] if found else []
+
+
+@pytest.mark.parametrize("name", ["generalisation", "ceiling"])
+def test_the_committed_benchmark_table_is_its_rows(name, tmp_path, capsys):
+    committed = (DOCS / f"diagnose-{name}.md").read_text()
+    regenerated = tmp_path / "table.md"
+    args = ["--out", str(tmp_path / "out"),
+            "--results", str(DOCS / "diagnose-generalisation.jsonl"), "--report",
+            "--markdown", str(regenerated), *_draws_from(committed)]
+    if name == "ceiling":
+        (tmp_path / "out").mkdir()
+        args += ["--ceiling", str(DOCS / "diagnose-ceiling.jsonl")]
+        bench_diagnose_ceiling.main(args)
+    else:
+        bench_diagnose_generalisation.main(args)
+    capsys.readouterr()  # the report is printed too
+    assert _body(regenerated.read_text()) == _body(committed), (
+        f"docs/diagnose-{name}.md is not its rows' table; regenerate it with the command "
+        "its first paragraph gives")
