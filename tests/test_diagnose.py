@@ -603,6 +603,12 @@ def test_verdict_rules():
     assert _judge(2.5, 2.5, [_fit("a", 2.1)], noise=1.0)[0] == "unexplained"
     # the same extension against a base error twice as large removes 84 %
     assert _judge(5.0, 5.0, [_fit("a", 2.1)], noise=1.0)[0] == "explained"
+    # a discrepancy on the training runs only: the held-out runs are within the
+    # no-discrepancy limit (1.9), so they cannot confirm what would otherwise be named
+    # ((1.9^2 - 1.2^2) / (1.9^2 - 1) = 83 % removed, the runner-up far behind)
+    result, named, reason = _judge(3.0, z - 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)
+    assert (result, named) == ("unexplained", None) and "cannot confirm" in reason
+    assert _judge(3.0, z + 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)[0] == "explained"
     # two candidates equally good
     assert _judge(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)], noise=1.0)[0] \
         == "unexplained"
