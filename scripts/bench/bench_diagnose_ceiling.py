@@ -44,7 +44,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
-from bench_diagnose_generalisation import _outcome, case_of, generate  # noqa: E402
+from bench_diagnose_generalisation import (FIXED, _outcome, case_of, fraction,  # noqa: E402
+                                           generate)
 from skidsteer.data.dataset import read_dataset  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
@@ -189,10 +190,6 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
             "code": code_fingerprint()[:12]}
 
 
-def _rate(k: int, n: int) -> str:
-    return f"{k} of {n}" + (f" ({k / n:.0%})" if n else "")
-
-
 def summary(rows: list[dict], verdicts: list[dict]) -> str:
     """How often the truth would be named, and diagnose where it would, in one sentence."""
     named = [r for r, v in zip(rows, verdicts) if v["named"]]
@@ -201,10 +198,10 @@ def summary(rows: list[dict], verdicts: list[dict]) -> str:
     diagnosed_right = [r for r, v in zip(rows, verdicts) if v["named"] and v["diagnose"] == "right"]
     stops = Counter(v["stopped_by"] for v in verdicts if not v["named"])
     return (f"{len(rows)} causes' datasets clear of the trials' noise: the truth itself would "
-            f"be named in {_rate(len(named), len(rows))}; of those whose held-out command "
+            f"be named in {fraction(len(named), len(rows))}; of those whose held-out command "
             f"shows a discrepancy (base error above {Z_CONSISTENT:g}), "
-            f"{_rate(len(judged_named), len(judged_rows))}.  diagnose named "
-            f"{_rate(len(diagnosed_right), len(named))} of the datasets where the truth would "
+            f"{fraction(len(judged_named), len(judged_rows))}.  diagnose named "
+            f"{fraction(len(diagnosed_right), len(named))} of the datasets where the truth would "
             "be named.  Where the truth is not named, the rule that stops it: "
             + (", ".join(f"{k} {n}" for k, n in sorted(stops.items())) or "none") + ".")
 
@@ -214,8 +211,7 @@ def report(rows: list[dict], diagnosed: dict[str, dict], draws_from: int | None 
     summary also of the draws from seed draws_from on, if given."""
     verdicts = [judged(r, diagnosed[r["case"]]) for r in rows]
     later = [i for i, r in enumerate(rows) if draws_from is not None
-             and diagnosed[r["case"]].get("seed", -1) >= draws_from
-             and r["case"].startswith("draw-")]
+             and r["case"] not in FIXED and diagnosed[r["case"]]["seed"] >= draws_from]
     lines = [table(["case", "effect", "floor", "deg/s", "base held-out", "truth held-out",
                     "truth removes", "fit held-out", "with the truth", "diagnose"],
                    [[r["case"], r["effect"], r["floor"],

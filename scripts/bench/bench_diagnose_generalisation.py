@@ -203,9 +203,13 @@ def _verdict_shown(row: dict) -> str:
     return now if now == row["verdict"] else f"{now} (was {row['verdict']})"
 
 
+def fraction(k: int, n: int) -> str:
+    """'k of n (p%)', as every summary of both benchmarks says it."""
+    return f"{k} of {n}" + (f" ({k / n:.0%})" if n else "")
+
+
 def _rate(rows: list[dict]) -> str:
-    right = sum(_outcome(r) == "right" for r in rows)
-    return f"{right} of {len(rows)}" + (f" ({right / len(rows):.0%})" if rows else "")
+    return fraction(sum(_outcome(r) == "right" for r in rows), len(rows))
 
 
 def _clear(rows: list[dict], code: str | None = None) -> list[dict]:
