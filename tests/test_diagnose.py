@@ -192,6 +192,24 @@ def test_split_holds_out_the_middle_command():
     obs = _observed(np.ones((9, N_POWER + 1)), [0, 0, 0, 1, 1, 1, 2, 2, 2])
     train, held = diagnosis.split(obs)
     assert list(held) == [3, 4, 5] and list(train) == [0, 1, 2, 6, 7, 8]
+    # the middle shows a discrepancy: it stays held out, whatever the others show
+    assert list(diagnosis.split(obs, np.array([4.0, 2.1, 1.0]))[1]) == [3, 4, 5]
+
+
+def test_split_holds_out_a_command_that_shows_the_discrepancy():
+    obs = _observed(np.ones((9, N_POWER + 1)), [0, 0, 0, 1, 1, 1, 2, 2, 2])
+    # the middle quiet, both others showing it: the weaker of them is held out, the
+    # stronger trains (issue 21's draw 1041: 2.14, 1.78, 4.14)
+    train, held = diagnosis.split(obs, np.array([2.14, 1.78, 4.14]))
+    assert list(held) == [0, 1, 2] and list(train) == [3, 4, 5, 6, 7, 8]
+    # one command alone shows it: holding it out would leave nothing to fit, so the
+    # middle stays held out (and the verdict cannot confirm a cause)
+    assert list(diagnosis.split(obs, np.array([1.5, 1.9, 4.2]))[1]) == [3, 4, 5]
+    # nothing shows: the middle
+    assert list(diagnosis.split(obs, np.array([1.0, 1.0, 1.0]))[1]) == [3, 4, 5]
+    # six commands hold out two (1 and 4); both quiet, three others show it
+    six = _observed(np.ones((6, N_POWER + 1)), [0, 1, 2, 3, 4, 5])
+    assert list(diagnosis.split(six, np.array([3.0, 1.0, 2.5, 5.0, 1.5, 1.9]))[1]) == [0, 2]
 
 
 class _Surface:

@@ -50,9 +50,10 @@ from skidsteer.data.dataset import read_dataset  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
                                             model_factory, simulate_groups)
-from skidsteer.diagnosis.fit import (MIN_GAIN, _score, gain, median_error,  # noqa: E402
-                                     n_parameters, over_starts, preferred_in_training,
-                                     separated, split, told_from_base)
+from skidsteer.diagnosis.fit import (MIN_GAIN, _score, base_group_errors, gain,  # noqa: E402
+                                     median_error, n_parameters, over_starts,
+                                     preferred_in_training, separated, split,
+                                     told_from_base)
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
@@ -137,11 +138,14 @@ class Measured:
         self.stored = SimulationCache(out / "simulations")
         observed = Observed.from_dataset(read_dataset(data), group_wheel_rates(model_factory()))
         self.groups, self.duration_s = observed.groups, observed.duration_s
-        self.train, self.held = split(observed)
         self.base = self.simulated(model_factory())
         # the records' wheel orders at the base model's wheel rates, as diagnose_observed
         self.observed = observed.with_wheel_rates(self.base.wheel_rates_hz)
         self.comparison = Comparison(self.observed)
+        self.base_starts = self.over_starts(self.base, model_factory(),
+                                            list(range(len(self.groups))))
+        self.train, self.held = split(self.observed,
+                                      base_group_errors(self.comparison, self.base_starts))
 
     def simulated(self, factory):
         return simulate_groups([(factory, self.groups)], self.duration_s, self.chain,
@@ -159,7 +163,7 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
     m = Measured(case, out, trials, duration_s, threads)
     comparison, train, held = m.comparison, m.train, m.held
     run_group = m.observed.run_group
-    base_starts = m.over_starts(m.base, model_factory(), list(range(len(m.groups))))
+    base_starts = m.base_starts
     held_groups = sorted({int(g) for g in run_group[held]})
     all_runs = np.arange(len(run_group))
 
