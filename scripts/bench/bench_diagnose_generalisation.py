@@ -21,7 +21,9 @@ An outcome per dataset:
   another, missed when nothing is named.  A cause's dataset whose held-out command
   (the one the verdict is judged on) shows no discrepancy of its own (the base
   model within Z_CONSISTENT there) is marked ``held-out quiet``: the effect shows in
-  the training commands only, and no held-out test can confirm a cause.  The report
+  the training commands only, and no held-out test can confirm a cause (since
+  1a90586, diagnose holds out another command when the middle one is quiet and two
+  show the effect, so a row is quiet only when one command alone shows it).  The report
   gives the rate of right names with and without those.
 
 Every finished dataset is appended to ``--results`` (default ``--out``/results.jsonl)

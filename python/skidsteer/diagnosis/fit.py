@@ -779,7 +779,7 @@ def simulations_planned(names: list[str], observed: Observed,
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
                    + (refining(c) if c.name in refined else 0) for c in candidates)
-    train, held = split(observed)
+    train, held = split(observed)  # split() moves held-out groups, never changes their count
     n_groups = len(observed.groups)
     n_trained = len(set(observed.run_group[train].tolist()))
     n_held = len(set(observed.run_group[held].tolist()))

@@ -280,6 +280,18 @@ def plot_features_vs_omega(rows: list[dict], models: list[str], path: Path) -> P
 
 # ------------------------------------------------------------------ writers
 
+def _base_by_group(dataset: dict) -> list[str]:
+    """The base model's error per command, which the held-out command is chosen by."""
+    errors = dataset.get("base_error_by_group")
+    if not errors:
+        return []
+    held = set(dataset["held_out_groups"])
+    return ["The base model's error per command (RMS z; a held-out command should show a "
+            f"discrepancy of its own, above {Z_CONSISTENT:g}): "
+            + ", ".join(f"{label} {error:.2f}" + (" (held out)" if label in held else "")
+                        for label, error in errors.items()) + ".", ""]
+
+
 def _fmt(x, digits: int = 3) -> str:
     return fmt(x, f".{digits}g")
 
@@ -385,7 +397,7 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         f"Dataset `{diagnosis['dataset']['root']}`: {diagnosis['dataset']['runs']} runs, "
         f"{len(observed.groups)} commands (held out: "
         f"{', '.join(diagnosis['dataset']['held_out_groups'])}); model: {diagnosis['model']}.",
-        "",
+        "", *_base_by_group(diagnosis["dataset"]),
         f"## Verdict: **{diagnosis['verdict']}**"
         + (f", cause **{diagnosis['cause']}**" if diagnosis["cause"] else ""), "",
         diagnosis["reason"] + ".", ""]
