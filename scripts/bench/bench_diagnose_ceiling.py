@@ -263,6 +263,8 @@ def main(argv=None) -> int:
     ap.add_argument("--ceiling", type=Path, required=True, help="this benchmark's rows "
                     "(JSON lines, appended as each case finishes; a rerun resumes)")
     ap.add_argument("--only", nargs="*", help="only these cases")
+    ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again (their "
+                    "earlier rows stay in the file; the table shows a case's newest row)")
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--duration", type=float, default=20.0)
     ap.add_argument("--threads", type=int, default=2)
@@ -279,7 +281,8 @@ def main(argv=None) -> int:
         done = {r["case"] for r in _rows(args.ceiling)}
         todo = [case_of(row) for name, row in newest.items()
                 if row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
-                and name not in done and (not args.only or name in args.only)]
+                and (name not in done or name in args.rerun)
+                and (not args.only or name in args.only)]
         # the misses first (what the ceiling is to explain), then the newest rows
         todo.sort(key=lambda c: (_outcome(newest[c["case"]]) != "missed", -c["seed"]))
         for i, case in enumerate(todo):
@@ -295,7 +298,8 @@ def main(argv=None) -> int:
                   f"base {result['base_held']:.2f}, truth {result['truth_held']:.2f}; training "
                   f"base {result['base_train']:.2f}, truth {result['truth_train']:.2f} "
                   f"({result['seconds']:.0f} s)", flush=True)
-    rows = _rows(args.ceiling)
+    # a case's newest row, in the place of its first
+    rows = list({r["case"]: r for r in _rows(args.ceiling)}.values())
     text = report(rows, newest, args.draws_from)
     print(text)
     if args.markdown:
