@@ -220,10 +220,12 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
 
 def base_group_errors(comparison: Comparison, sims: list[Simulated]) -> np.ndarray:
     """The base model's error on each command group (median over the starts' sims), the
-    centripetal offset taken from the other groups, as a held-out group's is."""
+    centripetal offset taken from the other groups, as a held-out group's is (from its
+    own runs when it is the only group)."""
     group_of = comparison.observed.run_group
     runs = np.arange(len(group_of))
-    return np.array([median_error(comparison, sims, runs[group_of == g], runs[group_of != g])
+    return np.array([median_error(comparison, sims, runs[group_of == g],
+                                  runs[group_of != g] if np.any(group_of != g) else None)
                      for g in range(len(comparison.observed.groups))])
 
 
