@@ -45,7 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
 from bench_diagnose_generalisation import (FIXED, _outcome, case_of, fraction,  # noqa: E402
-                                           generate)
+                                           generate, newest_rows)
 from skidsteer.data.dataset import read_dataset  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
@@ -250,10 +250,6 @@ def _by_code(rows: list[dict], verdicts: list[dict], diagnosed: dict[str, dict])
     return parts
 
 
-def _rows(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True, help="the generalisation benchmark's "
@@ -274,11 +270,9 @@ def main(argv=None) -> int:
                     "on (the README's 1080)")
     args = ap.parse_args(argv)
 
-    newest = {}
-    for row in _rows(args.results):
-        newest[row["case"]] = row  # a case's newest row, as the generalisation report
+    newest = newest_rows(args.results)
     if not args.report:
-        done = {r["case"] for r in _rows(args.ceiling)}
+        done = set(newest_rows(args.ceiling))
         todo = [case_of(row) for name, row in newest.items()
                 if row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
                 and (name not in done or name in args.rerun)
@@ -298,8 +292,7 @@ def main(argv=None) -> int:
                   f"base {result['base_held']:.2f}, truth {result['truth_held']:.2f}; training "
                   f"base {result['base_train']:.2f}, truth {result['truth_train']:.2f} "
                   f"({result['seconds']:.0f} s)", flush=True)
-    # a case's newest row, in the place of its first
-    rows = list({r["case"]: r for r in _rows(args.ceiling)}.values())
+    rows = list(newest_rows(args.ceiling).values())
     text = report(rows, newest, args.draws_from)
     print(text)
     if args.markdown:

@@ -270,6 +270,12 @@ def _rows(results: Path) -> list[dict]:
             if results.exists() else [])
 
 
+def newest_rows(results: Path) -> dict[str, dict]:
+    """A case's newest row, by case, in the order of each case's first row (a rerun
+    appends; the tables show the newest)."""
+    return {r["case"]: r for r in _rows(results)}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--datasets", type=int, default=40, help="drawn datasets (besides the "
@@ -298,7 +304,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     results = args.results or args.out / "results.jsonl"
-    done = {r["case"]: r for r in _rows(results)}  # a case's newest row
+    done = newest_rows(results)
     rerun = set(args.rerun)
     if not args.report:
         for case in plan(args.datasets, args.first_seed):

@@ -200,10 +200,10 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
     if len(observed.groups) >= 3:
         held_groups = np.arange(1, len(observed.groups), 3)
         if group_errors is not None:
-            showing = np.flatnonzero(np.asarray(group_errors) > Z_CONSISTENT)
-            if (np.all(np.asarray(group_errors)[held_groups] <= Z_CONSISTENT)
-                    and len(showing) > len(held_groups)):
-                weakest = np.argsort(np.asarray(group_errors)[showing], kind="stable")
+            errors = np.asarray(group_errors)
+            showing = np.flatnonzero(errors > Z_CONSISTENT)
+            if np.all(errors[held_groups] <= Z_CONSISTENT) and len(showing) > len(held_groups):
+                weakest = np.argsort(errors[showing], kind="stable")
                 held_groups = showing[weakest[:len(held_groups)]]
         held = np.isin(observed.run_group, held_groups)
     else:
