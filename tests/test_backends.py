@@ -145,9 +145,10 @@ def slip_dataset(tmp_path_factory):
     # command, its last trial held out: what is tested is that Ray gives the local
     # numbers, on as few runs as a diagnosis takes (the CI budget: with two commands
     # this test took 464 s of a worker under CI=true; one command's local diagnosis
-    # takes 66 s here)
+    # takes 66 s here).  4 trials: the trials' spread needs 3 degrees of freedom
+    # (comparison.MIN_SPREAD_DOF); the simulations are per command, not per trial
     make_dataset(root, "slip_lambda_max", seed=3, duration_s=8.0, file_format="csv",
-                 omegas=(60.0,))
+                 omegas=(60.0,), trials=4)
     return root
 
 
@@ -177,3 +178,5 @@ def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
     assert json.dumps(on_ray, sort_keys=True) == json.dumps(local, sort_keys=True)
     assert [r["cause"] for r in local["ranking"]] == ["slip_lambda_max", "ground_roughness"]
     assert local["ranking"][1]["realisation"] is not None
+    # one command: its held-out trial repeats the trained command, so nothing is named
+    assert local["verdict"] == "unexplained" and "repeat the commands" in local["reason"]

@@ -40,6 +40,7 @@ from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
+from skidsteer.data.dataset import Group
 from skidsteer.robot import Setup, load_model, roles_of
 from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
@@ -588,6 +589,45 @@ def test_the_error_over_starts_is_not_moved_by_one_start_in_another_regime():
     assert comp.error(rare, runs) > 3 * with_rare  # what one start alone would have said
 
 
+def test_the_trials_spread_needs_three_degrees_of_freedom():
+    # issue 21, stop 44: datasets the model itself simulated, with 1 or 2 degrees of
+    # freedom in their trials' spread, scored 2.0-6.1, above the no-discrepancy limit
+    from skidsteer.diagnosis.comparison import MIN_SPREAD_DOF, require_spread
+
+    assert MIN_SPREAD_DOF == 3  # Student's t has a finite variance from 3 on
+    setup = Setup(build="extended", floor="concrete")
+    groups = [Group(0.0, w, setup) for w in (15.0, 30.0, 45.0)]
+
+    def observed(groups_of_runs):
+        obs = _observed(np.ones((len(groups_of_runs), N_POWER + 1)), groups_of_runs)
+        return dataclasses.replace(obs, groups=groups[:max(groups_of_runs) + 1])
+
+    for runs, dof in (([0, 0], 1), ([0, 0, 0], 2), ([0, 0, 1, 1], 2), ([0, 1, 2], 0)):
+        assert observed(runs).spread_dof() == dof
+        with pytest.raises(ValueError) as err:
+            require_spread(observed(runs), "runs/")
+        # the place, the count, each command's trials and what to record
+        assert str(err.value).startswith(f"runs/: the trials' spread rests on {dof} ")
+        assert "v0-w15 concrete extended x " in str(err.value)
+        assert "1 command x 4" in str(err.value)
+    for runs in ([0, 0, 0, 0], [0, 0, 1, 1, 2, 2], [0, 0, 1, 1, 1]):
+        require_spread(observed(runs))  # 3 degrees of freedom or more: judged
+
+
+def test_too_few_repeated_trials_is_a_clear_error_before_any_simulation(tmp_path, capsys):
+    from skidsteer.cli import main
+
+    data = tmp_path / "two-trials"
+    make_dataset(data, None, seed=5, omegas=(30.0,), trials=2, duration_s=8.0,
+                 file_format="csv")
+    out = tmp_path / "out"
+    assert main(["diagnose", str(data), "--out", str(out), "--no-progress"]) == 2
+    error = capsys.readouterr().err
+    assert str(data) in error and "rests on 1 repeated trial" in error
+    cache = out / ".skidsteer-cache"
+    assert not cache.exists() or not any(cache.iterdir())  # nothing was simulated
+
+
 # ------------------------------------------------------------------ verdict rules
 
 def _fit(name, held, score=None):
@@ -627,6 +667,13 @@ def test_verdict_rules():
     result, named, reason = _judge(3.0, z - 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)
     assert (result, named) == ("unexplained", None) and "cannot confirm" in reason
     assert _judge(3.0, z + 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)[0] == "explained"
+    # the same, but the held-out runs are repeat trials of the trained commands (fewer
+    # than three commands): they cannot confirm it either
+    result, named, reason = diagnosis.verdict(
+        3.0, z + 0.1, [_fit("a", 1.2), _fit("b", 3.0)], 1.0, base_train=3.0, n_train=6,
+        held_out_new_commands=False)
+    assert (result, named) == ("unexplained", None) and "repeat the commands" in reason
+    assert "a third command" in reason and "a," in reason
     # two candidates equally good
     assert _judge(8.0, 8.0, [_fit("a", 1.2), _fit("b", 1.25)], noise=1.0)[0] \
         == "unexplained"

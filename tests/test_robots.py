@@ -97,10 +97,11 @@ def test_the_robot_swivels_the_commanded_way(mini):
 
 def test_compare_runs_on_data_simulated_from_the_robot(mini, tmp_path):
     setup = Setup(robot=str(mini), floor="concrete")
-    make_dataset(tmp_path / "data", None, seed=1, omegas=(20.0, 40.0), trials=2,
+    # 3 trials: the trials' spread needs 3 degrees of freedom (MIN_SPREAD_DOF)
+    make_dataset(tmp_path / "data", None, seed=1, omegas=(20.0, 40.0), trials=3,
                  duration_s=7.0, setup=setup, file_format="csv")
     dataset = read_dataset(tmp_path / "data", robot=str(mini))
-    assert len(dataset.runs) == 4 and not dataset.skipped
+    assert len(dataset.runs) == 6 and not dataset.skipped
     result = compare(tmp_path / "data", tmp_path / "out", model=str(mini), progress=False,
                      figures=False)
     # the model is the truth: no discrepancy beyond the trials' own scatter

@@ -24,7 +24,7 @@ from skidsteer.data.dataset import read_dataset
 from skidsteer.data.files import begin_outputs, finish_outputs, write_json, write_text
 from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
-                                            model_factory, simulate_groups)
+                                            model_factory, require_spread, simulate_groups)
 from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
                                      median_error, over_starts, simulations_planned)
 from skidsteer.features import signals
@@ -56,7 +56,9 @@ class _Progress:
 
 def _observed(dataset_dir, model: str | None) -> Observed:
     dataset = read_dataset(dataset_dir, robot=model)
-    return Observed.from_dataset(dataset, group_wheel_rates(model_factory()))
+    observed = Observed.from_dataset(dataset, group_wheel_rates(model_factory()))
+    require_spread(observed, str(dataset_dir))  # before any simulation
+    return observed
 
 
 def _model_label(model: str | None) -> str:
