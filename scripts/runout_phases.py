@@ -1,0 +1,105 @@
+"""How a run-out's wheel phases shape what diagnose sees (issue 21's missed run-outs).
+
+wheel_eccentricity offsets each wheel's tire by the eccentricity at a phase per wheel
+(its realisation); a fit tries REALISATIONS random draws of the four phases.  A swivel
+turns the left wheels back and the right ones forward, and a repeat trial starts with
+the left wheels turned by -theta and the right by +theta (simulation.run.trial_start),
+so what a dataset can know of the phases is three numbers: the front-rear phase
+difference on each side and the four phases' sum.  For each case this script simulates
+the truth (the generalisation benchmark's draw, replayed as the ceiling benchmark does)
+with its phases turned as a trial start turns them (the three numbers kept), and with
+each of the three changed, and prints the training and held-out errors (from rest, the
+base model's split) beside `--realisations` random draws at the truth's eccentricity,
+which is what a fit chooses among.
+
+    python scripts/runout_phases.py --out DIR draw-1167 draw-1149
+
+DIR: the generalisation benchmark's --out (its datasets are regenerated there when
+missing; simulations are cached in DIR/simulations).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "bench"))
+from bench_diagnose_ceiling import Measured  # noqa: E402
+from bench_diagnose_generalisation import case_of, newest_rows  # noqa: E402
+
+from skidsteer.diagnosis import causes  # noqa: E402
+from skidsteer.diagnosis.comparison import model_factory  # noqa: E402
+from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
+from skidsteer.robot import roles_of, tire  # noqa: E402
+
+ROWS = Path(__file__).resolve().parents[1] / "docs" / "diagnose-generalisation.jsonl"
+
+
+def phased(phases: np.ndarray, eccentricity_m: float):
+    """wheel_eccentricity's edit with the wheels' phases given (tire.find_wheels order)."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        m = spec.compile()
+        for wheel, phase in zip(tire.find_wheels(m, tire.instance_id(m)), phases):
+            geom = spec.geom(m.geom(wheel.geom).name)
+            axis = np.asarray(m.jnt_axis[wheel.joint], dtype=float)
+            u = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+            u /= np.linalg.norm(u)
+            v = np.cross(axis, u)
+            geom.pos = list(np.asarray(geom.pos) + eccentricity_m
+                            * (np.cos(phase) * u + np.sin(phase) * v))
+    return edit
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("cases", nargs="+", help="generalisation benchmark cases (run-outs)")
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--realisations", type=int, default=24)
+    args = ap.parse_args(argv)
+    rows = newest_rows(ROWS)
+    cause = causes.get("wheel_eccentricity")
+    for name in args.cases:
+        case = case_of(rows[name])
+        if case["effect"] != cause.name:
+            raise SystemExit(f"{name}: its hidden effect is {case['effect']}, not a run-out")
+        measured = Measured(case, args.out, 3, 20.0, 2)
+        comparison, train, held = measured.comparison, measured.train, measured.held
+        rng = np.random.default_rng(case["seed"])
+        edit, values = truth_edit(case["effect"], case["params"],
+                                  np.random.default_rng(case["seed"]), "clear", "prior")
+        # the truth's realisation: truth_edit's first draw, apply's phases from it
+        phases = np.random.default_rng(int(rng.integers(2**31))).uniform(0, 2 * np.pi, 4)
+        e = values["eccentricity_m"]
+        m = model_factory()(measured.groups[0].setup)
+        side = np.array([s for s in roles_of(m).wheel_side], dtype=float)  # +1 left
+        front = np.array([m.body_pos[m.jnt_bodyid[w.joint]][0] > 0
+                          for w in tire.find_wheels(m, tire.instance_id(m))])
+        left_front = np.where((side > 0) & front, np.pi, 0.0)
+        variants = {"the truth": edit}
+        for theta in (0.7, 2.1, 4.0):
+            variants[f"turned {theta} rad (a trial start)"] = phased(phases - side * theta, e)
+        variants["sum + pi/2 (right wheels + pi/2)"] = phased(
+            phases + np.where(side < 0, np.pi / 2, 0.0), e)
+        variants["left front-rear difference + pi"] = phased(phases + left_front, e)
+        variants["mirrored (all phases negated)"] = phased(-phases, e)
+        print(f"{name}: {e * 1e3:.3f} mm, {case['floor']}, {case['omegas']} deg/s")
+
+        def show(label, factory):
+            sim = measured.simulated(factory)
+            print(f"  {label:38s} training {comparison.error(sim.features, train):6.2f}  "
+                  f"held-out {comparison.error(sim.features, held, train):6.2f}", flush=True)
+
+        show("the base model", model_factory())
+        for label, variant in variants.items():
+            show(label, model_factory(variant))
+        for r in range(args.realisations):
+            show(f"realisation {r}", model_factory(cause.edit(values, r)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
