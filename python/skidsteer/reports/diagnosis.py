@@ -397,8 +397,11 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
     lines = [
         "# skidsteer diagnose", "",
         f"Dataset `{diagnosis['dataset']['root']}`: {diagnosis['dataset']['runs']} runs, "
-        f"{len(observed.groups)} commands (held out: "
-        f"{', '.join(diagnosis['dataset']['held_out_groups'])}); model: {diagnosis['model']}.",
+        f"{len(observed.groups)} command{'s' if len(observed.groups) != 1 else ''} (held out: "
+        + (f"{', '.join(diagnosis['dataset']['held_out_groups'])}" if len(observed.groups) >= 3
+           else "the last trial of each: with fewer than 3 commands no command can be held "
+                "out, and no cause is named")
+        + f"); model: {diagnosis['model']}.",
         "", *_base_by_group(diagnosis["dataset"]),
         f"## Verdict: **{diagnosis['verdict']}**"
         + (f", cause **{diagnosis['cause']}**" if diagnosis["cause"] else ""), "",
