@@ -24,7 +24,6 @@ import argparse
 import sys
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "bench"))
@@ -32,6 +31,8 @@ from bench_diagnose_ceiling import Measured  # noqa: E402
 from bench_diagnose_generalisation import case_of, newest_rows  # noqa: E402
 
 from skidsteer.diagnosis import causes  # noqa: E402
+from skidsteer.diagnosis.causes.wheel_eccentricity import (offset_wheels,  # noqa: E402
+                                                          wheel_phases)
 from skidsteer.diagnosis.comparison import model_factory  # noqa: E402
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
 from skidsteer.robot import roles_of, tire  # noqa: E402
@@ -41,17 +42,7 @@ ROWS = Path(__file__).resolve().parents[1] / "docs" / "diagnose-generalisation.j
 
 def phased(phases: np.ndarray, eccentricity_m: float):
     """wheel_eccentricity's edit with the wheels' phases given (tire.find_wheels order)."""
-    def edit(spec: mujoco.MjSpec) -> None:
-        m = spec.compile()
-        for wheel, phase in zip(tire.find_wheels(m, tire.instance_id(m)), phases):
-            geom = spec.geom(m.geom(wheel.geom).name)
-            axis = np.asarray(m.jnt_axis[wheel.joint], dtype=float)
-            u = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
-            u /= np.linalg.norm(u)
-            v = np.cross(axis, u)
-            geom.pos = list(np.asarray(geom.pos) + eccentricity_m
-                            * (np.cos(phase) * u + np.sin(phase) * v))
-    return edit
+    return lambda spec: offset_wheels(spec, eccentricity_m, lambda n_wheels: phases)
 
 
 def main(argv=None) -> int:
@@ -68,11 +59,11 @@ def main(argv=None) -> int:
             raise SystemExit(f"{name}: its hidden effect is {case['effect']}, not a run-out")
         measured = Measured(case, args.out, 3, 20.0, 2)
         comparison, train, held = measured.comparison, measured.train, measured.held
-        rng = np.random.default_rng(case["seed"])
         edit, values = truth_edit(case["effect"], case["params"],
                                   np.random.default_rng(case["seed"]), "clear", "prior")
-        # the truth's realisation: truth_edit's first draw, apply's phases from it
-        phases = np.random.default_rng(int(rng.integers(2**31))).uniform(0, 2 * np.pi, 4)
+        # the truth's realisation: truth_edit's first draw, the phases apply makes of it
+        realisation = int(np.random.default_rng(case["seed"]).integers(2**31))
+        phases = wheel_phases(realisation, 4)
         e = values["eccentricity_m"]
         m = model_factory()(measured.groups[0].setup)
         side = np.array([s for s in roles_of(m).wheel_side], dtype=float)  # +1 left

@@ -27,6 +27,7 @@ import pytest
 
 import skidsteer  # noqa: F401
 from skidsteer import diagnosis
+from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
                                             model_factory, simulate_group, wheel_rates_hz)
@@ -40,7 +41,6 @@ from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
-from skidsteer.data.dataset import Group
 from skidsteer.robot import Setup, load_model, roles_of
 from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain

@@ -137,11 +137,14 @@ class Observed:
                              in zip(self.records, self.run_group)])
         return dataclasses.replace(self, features=features)
 
+    def trials_per_command(self) -> np.ndarray:
+        """The usable runs of each group."""
+        return np.bincount(self.run_group, minlength=len(self.groups))
+
     def spread_dof(self) -> int:
         """The degrees of freedom of the trials' spread: each command's runs beyond its
         first, pooled (trial_spread's, for a feature every run scores)."""
-        counts = np.bincount(self.run_group, minlength=len(self.groups))
-        return int(np.sum(np.maximum(counts - 1, 0)))
+        return int(np.sum(np.maximum(self.trials_per_command() - 1, 0)))
 
     def noise_floor(self) -> np.ndarray:
         """Per band power, the quietest run's: the sensor chain's floor wherever at least
@@ -185,8 +188,8 @@ def require_spread(observed: Observed, where: str = "the dataset") -> None:
     dof = observed.spread_dof()
     if dof >= MIN_SPREAD_DOF:
         return
-    counts = np.bincount(observed.run_group, minlength=len(observed.groups))
-    held = ", ".join(f"{g.label} x {n}" for g, n in zip(observed.groups, counts))
+    held = ", ".join(f"{g.label} x {n}"
+                     for g, n in zip(observed.groups, observed.trials_per_command()))
     raise ValueError(
         f"{where}: the trials' spread rests on {dof} repeated trial(s) ({held}; the "
         f"runs beyond the first of each command, pooled), and a discrepancy is judged "

@@ -198,7 +198,7 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
     quiet held-out command; in 5 of them two commands show the effect (per-command
     errors measured with the base model before this rule was written)."""
     runs = np.arange(len(observed.run_group))
-    if len(observed.groups) >= 3:
+    if holds_out_commands(observed):
         held_groups = np.arange(1, len(observed.groups), 3)
         if group_errors is not None:
             errors = np.asarray(group_errors)
@@ -217,6 +217,12 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
         raise ValueError("the dataset needs at least two runs of one command, or three "
                          "commands, to hold some out")
     return runs[~held], runs[held]
+
+
+def holds_out_commands(observed: Observed) -> bool:
+    """Whether split holds out whole commands (three or more), or else the last trial of
+    each, which repeats a trained command and can confirm no cause (verdict)."""
+    return len(observed.groups) >= 3
 
 
 def base_group_errors(comparison: Comparison, sims: list[Simulated]) -> np.ndarray:
@@ -941,8 +947,6 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     base_error = median_error(comparison, base_starts, all_runs)
     group_errors = base_group_errors(comparison, base_starts)
     train, held = split(observed, group_errors)
-    # fewer than three commands: split holds out repeat trials of the trained commands
-    new_commands = not np.isin(observed.run_group[held], observed.run_group[train]).any()
     base_held = median_error(comparison, base_starts, held, train)
     # as a fit's train_error: the median over the search's starts
     base_train = median_error(comparison, base_starts[:search_starts], train)
@@ -973,7 +977,8 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
         f.removed = gain(base_held, f.held_out_error, noise)
     pair = fit_pair(fits[0], fits[1], held) if len(fits) > 1 else None
     result, named, reason = verdict(base_error, base_held, fits, noise, base_train=base_train,
-                                    n_train=len(train), held_out_new_commands=new_commands)
+                                    n_train=len(train),
+                                    held_out_new_commands=holds_out_commands(observed))
     if pair is not None and pair["better_than_best"] and result != "explained":
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
                    f"{pair['held_out_error']:.2f}): two effects may be at work")

@@ -26,7 +26,8 @@ from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
                                             model_factory, require_spread, simulate_groups)
 from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
-                                     median_error, over_starts, simulations_planned)
+                                     holds_out_commands, median_error, over_starts,
+                                     simulations_planned)
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
                                         steady_summary, steady_window)
@@ -398,7 +399,7 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         "# skidsteer diagnose", "",
         f"Dataset `{diagnosis['dataset']['root']}`: {diagnosis['dataset']['runs']} runs, "
         f"{len(observed.groups)} command{'s' if len(observed.groups) != 1 else ''} (held out: "
-        + (f"{', '.join(diagnosis['dataset']['held_out_groups'])}" if len(observed.groups) >= 3
+        + (f"{', '.join(diagnosis['dataset']['held_out_groups'])}" if holds_out_commands(observed)
            else "the last trial of each: with fewer than 3 commands no command can be held "
                 "out, and no cause is named")
         + f"); model: {diagnosis['model']}.",
