@@ -13,7 +13,6 @@ base model's split) beside `--realisations` random draws at the truth's eccentri
 which is what a fit chooses among.
 
     python scripts/runout_phases.py --out DIR draw-1167 draw-1149
-    python scripts/runout_phases.py --out DIR --grid 3 draw-1167 draw-1149
 
 DIR: the generalisation benchmark's --out (its datasets are regenerated there when
 missing; simulations are cached in DIR/simulations).
@@ -22,7 +21,6 @@ missing; simulations are cached in DIR/simulations).
 from __future__ import annotations
 
 import argparse
-import itertools
 import sys
 from pathlib import Path
 
@@ -52,10 +50,6 @@ def main(argv=None) -> int:
     ap.add_argument("cases", nargs="+", help="generalisation benchmark cases (run-outs)")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--realisations", type=int, default=24)
-    ap.add_argument("--grid", type=int, default=0, metavar="N",
-                    help="instead: the N^3 sets of the cause's three phase shifts (each at "
-                         "N levels over a turn) from realisation 0 at the truth's "
-                         "eccentricity, the best six and the spread of their errors")
     args = ap.parse_args(argv)
     rows = newest_rows(ROWS)
     cause = causes.get("wheel_eccentricity")
@@ -84,9 +78,6 @@ def main(argv=None) -> int:
         variants["left front-rear difference + pi"] = phased(phases + left_front, e)
         variants["mirrored (all phases negated)"] = phased(-phases, e)
         print(f"{name}: {e * 1e3:.3f} mm, {case['floor']}, {case['omegas']} deg/s")
-        if args.grid:
-            print_grid(measured, cause, values, args.grid)
-            continue
 
         def show(label, factory):
             sim = measured.simulated(factory)
@@ -99,31 +90,6 @@ def main(argv=None) -> int:
         for r in range(args.realisations):
             show(f"realisation {r}", model_factory(cause.edit(values, r)))
     return 0
-
-
-def print_grid(measured: Measured, cause, truth: dict, levels: int) -> None:
-    """The training and held-out errors of the levels^3 phase-shift sets (the cause's
-    shifts_realisation parameters, each at `levels` points over a turn) from realisation
-    0 at the truth's eccentricity: how far the training runs tell phase sets apart."""
-    comparison, train, held = measured.comparison, measured.train, measured.held
-    shifts = np.arange(levels) / levels * 2 * np.pi
-    shifts = np.where(shifts > np.pi, shifts - 2 * np.pi, shifts)
-    names = [p.name for p in cause.held if p.shifts_realisation]
-    e = truth["eccentricity_m"]
-    errors = []
-    for point in itertools.product(shifts, repeat=len(names)):
-        sim = measured.simulated(model_factory(cause.edit(
-            cause.parameters(e, dict(zip(names, point))), 0)))
-        errors.append((comparison.error(sim.features, train),
-                       comparison.error(sim.features, held, train), point))
-    errors.sort()
-    print(f"  {len(errors)} phase-shift sets from realisation 0 ({', '.join(names)}):")
-    for train_error, held_error, point in errors[:6]:
-        print(f"  shifts {np.round(point, 2)} rad  training {train_error:6.2f}  "
-              f"held-out {held_error:6.2f}")
-    training = [err[0] for err in errors]
-    print(f"  training errors: median {np.median(training):.2f}, worst {max(training):.2f}",
-          flush=True)
 
 
 if __name__ == "__main__":

@@ -32,7 +32,6 @@ from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
                                             model_factory, simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.causes import wheel_eccentricity
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
                                      REFINE_STEPS, STARTS, _interval,
                                      contenders, fit_every_parameter, median_error,
@@ -42,7 +41,7 @@ from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
 from skidsteer.reports.diagnosis import compare, diagnose
-from skidsteer.robot import Setup, load_model, roles_of, tire
+from skidsteer.robot import Setup, load_model, roles_of
 from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
@@ -413,52 +412,6 @@ def test_generated_truths_draw_the_held_parameters_from_their_priors():
     assert any(values[p.name] != p.value for p in mast.held)
     _, fixed = truth_edit("mast_compliance", None, np.random.default_rng(1))
     assert all(fixed[p.name] == p.value for p in mast.held)
-
-
-def test_a_runouts_phase_shifts_keep_the_seeds_realisation_at_zero_and_move_one_wheel():
-    runout = causes.get("wheel_eccentricity")
-    shifts = [p for p in runout.held if p.shifts_realisation]
-    assert [p.name for p in shifts] == [f"{w}_phase_shift_rad" for w in
-                                        ("front_left", "front_right", "rear_right")]
-    setup = Setup(build="extended", floor="concrete")
-    seeded = load_model(setup, edit=lambda spec: wheel_eccentricity.offset_wheels(
-        spec, 5e-4, lambda n: wheel_eccentricity.wheel_phases(7, n)))
-    # the generator's truth: the seed's phases exactly (synth does not draw the shifts,
-    # so a dataset drawn before the shifts existed is drawn again the same)
-    edit, values = truth_edit("wheel_eccentricity", None, np.random.default_rng(7), held="prior")
-    assert all(values[p.name] == 0.0 for p in shifts)
-    rng = np.random.default_rng(7)
-    rng.integers(2**31)
-    assert values["eccentricity_m"] == runout.strong_draw(rng)  # nothing drawn after it
-    at_zero = load_model(setup, edit=runout.edit(runout.parameters(5e-4), 7))
-    assert np.array_equal(at_zero.geom_pos, seeded.geom_pos)
-    # a shift of the front-left phase by pi moves that tire to the axle's other side
-    shifted = load_model(setup, edit=runout.edit(
-        runout.parameters(5e-4, {"front_left_phase_shift_rad": np.pi}), 7))
-    moved = np.flatnonzero(np.any(shifted.geom_pos != seeded.geom_pos, axis=1))
-    wheels = tire.find_wheels(seeded, tire.instance_id(seeded))
-    front_left = wheel_eccentricity.wheel_roles(seeded)["front_left"]
-    assert moved.tolist() == [wheels[front_left].geom]
-    parts = roles_of(seeded)
-    assert parts.wheel_side[front_left] == 1
-    assert parts.wheel_position_m[front_left, 0] > 0
-    base = load_model(setup)
-    g = wheels[front_left].geom
-    assert shifted.geom_pos[g] - base.geom_pos[g] == pytest.approx(
-        -(seeded.geom_pos[g] - base.geom_pos[g]), abs=1e-12)
-
-
-def test_shifting_a_realisation_replaces_the_price_of_choosing_it():
-    # a chosen realisation costs ln(REALISATIONS) parameters; a fit of the phases a
-    # dataset can tell spans what the choice chose among, and pays for those instead
-    assert diagnosis.fit.n_parameters("wheel_eccentricity", ["eccentricity_m"]) \
-        == pytest.approx(1 + np.log(diagnosis.fit.REALISATIONS))
-    every = ["eccentricity_m", "front_left_phase_shift_rad", "front_right_phase_shift_rad",
-             "rear_right_phase_shift_rad"]
-    assert diagnosis.fit.n_parameters("wheel_eccentricity", every) == 4
-    assert diagnosis.fit.n_parameters("ground_roughness", ["height_rms_m"]) \
-        == pytest.approx(1 + np.log(diagnosis.fit.REALISATIONS))
-    assert diagnosis.fit.n_parameters("mast_compliance", ["stiffness_n_m_per_rad"]) == 1
 
 
 def test_repeat_trials_start_where_a_swivel_left_the_robot():

@@ -179,7 +179,7 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
     held_errors = [comparison.error(s.features, held, train) for s in truth_starts]
     truth_held = float(np.median(held_errors))
     own = next((f for f in row.get("ranking", []) if f["cause"] == case["effect"]), None)
-    n_params = n_parameters(case["effect"], _fitted(case["effect"], own))
+    n_params = n_parameters(case["effect"], len(_fitted(case["effect"], own)))
     return {"case": case["case"], "effect": case["effect"], "floor": case["floor"],
             "omegas": list(case["omegas"]), "truth": values,
             "base_error": median_error(comparison, base_starts, all_runs),

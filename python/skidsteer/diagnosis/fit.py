@@ -15,9 +15,7 @@
    has phase-wrapping local minima (PLATFORM-NOTES, sysid).
    Causes with a random geometry (a rough floor, the phases of eccentric
    wheels) also choose their realisation on the training runs: the measured
-   robot has one, and it matters as much as the parameter.  Where a cause can
-   shift its realisation (Parameter.shifts_realisation: three wheels' run-out
-   phases), the fit of every parameter (4.) searches the shifts from there.
+   robot has one, and it matters as much as the parameter.
 4. The best REFINE_CONTENDERS causes, and any whose coarse design (Cause.design)
    fits the training runs better than its main fit, then have every parameter
    fitted (both frame stiffnesses and the damping, the roughness's RMS and
@@ -26,8 +24,7 @@
    from the fit's mirror image where a cause has one), each with an interval from
    the error's profile through the fit.
 5. Each fit is scored on the held-out runs, plus an AIC-style penalty per fitted
-   parameter (and ln(REALISATIONS) for a chosen realisation its fit did not
-   shift); the two best are
+   parameter (and ln(REALISATIONS) for a chosen realisation); the two best are
    also simulated together (fit_pair); the verdict follows VERDICT RULES below.
    The errors the verdict reads (the base model's, the held-out ones) are medians
    over STARTS starts of each command: one simulation is one draw of the model's
@@ -517,7 +514,7 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     held_error = evaluate.held_out_error(params, realisation, held)
     intervals = {p.name: _interval(evaluate.profile(p.name, params, realisation), len(train), p)
                  for p in fitted}
-    n_params = n_parameters(cause.name, [p.name for p in fitted])
+    n_params = n_parameters(cause.name, len(fitted))
     return Fit(cause.name, params, cause.main.name, intervals[cause.main.name], train_error,
                held_error, _score(held_error, n_params, len(train)), sim,
                evaluate.profile(cause.main.name, params, realisation),
@@ -629,21 +626,18 @@ def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
-def n_parameters(cause: str, fitted: list[str]) -> float:
-    """The parameters a fit of `cause` pays for (_score): its fitted ones (names), and
+def n_parameters(cause: str, n_fitted: int) -> float:
+    """The parameters a fit of `cause` pays for (_score): its n_fitted fitted ones, and
     ln(REALISATIONS) for a chosen realisation (a cause with a random geometry; a name not
-    in the registry, a test's stand-in, has none) unless the fit shifted the realisation
-    (Parameter.shifts_realisation): the shifts then span what the choice chose among."""
+    in the registry, a test's stand-in, has none)."""
     registered = cause_registry.CAUSES.get(cause)
     random = registered is not None and registered.random_realisation
-    if random and any(p.shifts_realisation for p in registered.held if p.name in fitted):
-        random = False
-    return len(fitted) + (np.log(REALISATIONS) if random else 0.0)
+    return n_fitted + (np.log(REALISATIONS) if random else 0.0)
 
 
 def training_score(fit, n_train: int) -> float:
     """The fit's training error scored as its held-out error is (_score)."""
-    return _score(fit.train_error, n_parameters(fit.cause, fit.fitted), n_train)
+    return _score(fit.train_error, n_parameters(fit.cause, len(fit.fitted)), n_train)
 
 
 def preferred_in_training(best, others: list, n_train: int):
@@ -778,7 +772,7 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
         return None
     comparison, train = evaluate.comparison, evaluate.train
     held_error = evaluate.held_out_over_starts(sim, factory, held)
-    n_params = sum(n_parameters(f.cause, f.fitted) for f in (first, second))
+    n_params = sum(n_parameters(f.cause, len(f.fitted)) for f in (first, second))
     score = _score(held_error, n_params, len(train))
     return {"causes": [first.cause, second.cause],
             "parameters": {first.cause: first.parameters, second.cause: second.parameters},

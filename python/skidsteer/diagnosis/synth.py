@@ -72,8 +72,7 @@ def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.r
     (draw="clear", Cause.strong_draw): an effect inside the trials' noise cannot be
     named by any method, and the no-effect dataset already tests that verdict.  Its
     other parameters, unless given, sit at their priors' values (held="value") or are
-    drawn from their priors (held="prior": a truth not shaped like the prior's middle),
-    except shifts of the realisation (Parameter.shifts_realisation), which stay at 0."""
+    drawn from their priors (held="prior": a truth not shaped like the prior's middle)."""
     if held not in ("value", "prior"):
         raise ValueError(f"held must be 'value' or 'prior', got {held!r}")
     if effect is None:
@@ -91,8 +90,7 @@ def truth_edit(effect: str | None, params: Mapping[str, float] | None, rng: np.r
                 raise ValueError(f"draw must be 'clear' or 'prior', got {draw!r}")
             main = cause.strong_draw(rng) if draw == "clear" else cause.main.draw(rng)
         if held == "prior":
-            values = {p.name: p.draw(rng) for p in cause.held
-                      if not p.shifts_realisation} | values
+            values = {p.name: p.draw(rng) for p in cause.held} | values
         values = cause.parameters(main, values)
         apply = cause.apply
     return (lambda spec: apply(spec, values, realisation)), values

@@ -42,12 +42,6 @@ class Parameter:
     value: float  # the prior's central value; the value held when not fitted
     log: bool  # prior uniform in log(value) (scale parameters) or in value
     source: str  # where the bounds and value come from
-    # a shift of the cause's random realisation (a wheel's run-out phase): its value, 0,
-    # keeps the realisation `seed` draws.  A generator's truth is its seed's realisation
-    # (synth does not draw it: the seed's is already uniform); fitted, it subsumes the
-    # choice among REALISATIONS seeds, which then costs no ln(REALISATIONS) in the score
-    # (diagnosis.fit.n_parameters)
-    shifts_realisation: bool = False
 
     def to_unit(self, x: float) -> float:
         """Prior coordinate in [0, 1] (log or linear)."""
