@@ -10,9 +10,13 @@ the truth (the generalisation benchmark's draw, replayed as the ceiling benchmar
 with its phases turned as a trial start turns them (the three numbers kept), and with
 each of the three changed, and prints the training and held-out errors (from rest, the
 base model's split) beside `--realisations` random draws at the truth's eccentricity,
-which is what a fit chooses among.
+which is what a fit chooses among.  With `--grid N` it prints instead the errors of
+N^3 sets of the front-left, front-right and rear-right wheels' phase shifts (the three
+numbers) from realisation 0: how loosely the training runs tell realisations apart and
+how rugged the error is over them (why a fit of the three was reverted: docs/diagnose.md).
 
     python scripts/runout_phases.py --out DIR draw-1167 draw-1149
+    python scripts/runout_phases.py --out DIR --grid 3 draw-1167 draw-1149
 
 DIR: the generalisation benchmark's --out (its datasets are regenerated there when
 missing; simulations are cached in DIR/simulations).
@@ -21,6 +25,7 @@ missing; simulations are cached in DIR/simulations).
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from pathlib import Path
 
@@ -50,6 +55,11 @@ def main(argv=None) -> int:
     ap.add_argument("cases", nargs="+", help="generalisation benchmark cases (run-outs)")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--realisations", type=int, default=24)
+    ap.add_argument("--grid", type=int, default=0, metavar="N",
+                    help="instead: the N^3 sets of the front-left, front-right and rear-right "
+                         "wheels' phase shifts (N levels over a turn each; the three numbers "
+                         "a dataset can tell) from realisation 0 at the truth's eccentricity: "
+                         "the best six and the spread of their errors")
     args = ap.parse_args(argv)
     rows = newest_rows(ROWS)
     cause = causes.get("wheel_eccentricity")
@@ -78,6 +88,12 @@ def main(argv=None) -> int:
         variants["left front-rear difference + pi"] = phased(phases + left_front, e)
         variants["mirrored (all phases negated)"] = phased(-phases, e)
         print(f"{name}: {e * 1e3:.3f} mm, {case['floor']}, {case['omegas']} deg/s")
+        if args.grid:
+            shifted = [np.flatnonzero((side > 0) & front)[0],
+                       np.flatnonzero((side < 0) & front)[0],
+                       np.flatnonzero((side < 0) & ~front)[0]]
+            print_grid(measured, wheel_phases(0, len(side)), shifted, e, args.grid)
+            continue
 
         def show(label, factory):
             sim = measured.simulated(factory)
@@ -90,6 +106,32 @@ def main(argv=None) -> int:
         for r in range(args.realisations):
             show(f"realisation {r}", model_factory(cause.edit(values, r)))
     return 0
+
+
+def print_grid(measured: Measured, phases: np.ndarray, shifted: list[int], e: float,
+               levels: int) -> None:
+    """The training and held-out errors of the levels^3 sets of phase shifts of the wheels
+    `shifted` (indices into phases) at eccentricity e: how far the training runs tell
+    realisations apart, and how rugged the error is over them."""
+    comparison, train, held = measured.comparison, measured.train, measured.held
+    steps = np.arange(levels) / levels * 2 * np.pi
+    steps = np.where(steps > np.pi, steps - 2 * np.pi, steps)
+    errors = []
+    for point in itertools.product(steps, repeat=len(shifted)):
+        turned = phases.copy()
+        turned[shifted] += point
+        sim = measured.simulated(model_factory(phased(turned, e)))
+        errors.append((comparison.error(sim.features, train),
+                       comparison.error(sim.features, held, train), point))
+    errors.sort()
+    print(f"  {len(errors)} phase-shift sets (front-left, front-right, rear-right) "
+          f"from realisation 0:")
+    for train_error, held_error, point in errors[:6]:
+        print(f"  shifts {np.round(point, 2)} rad  training {train_error:6.2f}  "
+              f"held-out {held_error:6.2f}")
+    training = [err[0] for err in errors]
+    print(f"  training errors: median {np.median(training):.2f}, worst {max(training):.2f}",
+          flush=True)
 
 
 if __name__ == "__main__":
