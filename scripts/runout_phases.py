@@ -40,7 +40,7 @@ from skidsteer.diagnosis.causes.wheel_eccentricity import (offset_wheels,  # noq
                                                           wheel_phases)
 from skidsteer.diagnosis.comparison import model_factory  # noqa: E402
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
-from skidsteer.robot import roles_of, tire  # noqa: E402
+from skidsteer.robot import roles_of  # noqa: E402
 
 ROWS = Path(__file__).resolve().parents[1] / "docs" / "diagnose-generalisation.jsonl"
 
@@ -68,7 +68,6 @@ def main(argv=None) -> int:
         if case["effect"] != cause.name:
             raise SystemExit(f"{name}: its hidden effect is {case['effect']}, not a run-out")
         measured = Measured(case, args.out, 3, 20.0, 2)
-        comparison, train, held = measured.comparison, measured.train, measured.held
         edit, values = truth_edit(case["effect"], case["params"],
                                   np.random.default_rng(case["seed"]), "clear", "prior")
         # the truth's realisation: truth_edit's first draw, the phases apply makes of it
@@ -76,9 +75,9 @@ def main(argv=None) -> int:
         phases = wheel_phases(realisation, 4)
         e = values["eccentricity_m"]
         m = model_factory()(measured.groups[0].setup)
-        side = np.array([s for s in roles_of(m).wheel_side], dtype=float)  # +1 left
-        front = np.array([m.body_pos[m.jnt_bodyid[w.joint]][0] > 0
-                          for w in tire.find_wheels(m, tire.instance_id(m))])
+        parts = roles_of(m)  # wheels in tire.find_wheels order
+        side = np.array(parts.wheel_side, dtype=float)  # +1 left
+        front = parts.wheel_position_m[:, 0] > 0
         left_front = np.where((side > 0) & front, np.pi, 0.0)
         variants = {"the truth": edit}
         for theta in (0.7, 2.1, 4.0):
@@ -96,9 +95,7 @@ def main(argv=None) -> int:
             continue
 
         def show(label, factory):
-            sim = measured.simulated(factory)
-            print(f"  {label:38s} training {comparison.error(sim.features, train):6.2f}  "
-                  f"held-out {comparison.error(sim.features, held, train):6.2f}", flush=True)
+            print(f"  {label:38s} " + shown(*errors(measured, factory)), flush=True)
 
         show("the base model", model_factory())
         for label, variant in variants.items():
@@ -108,28 +105,35 @@ def main(argv=None) -> int:
     return 0
 
 
+def errors(measured: Measured, factory) -> tuple[float, float]:
+    """The model's training and held-out errors (from rest, the base model's split)."""
+    sim = measured.simulated(factory)
+    comparison, train, held = measured.comparison, measured.train, measured.held
+    return comparison.error(sim.features, train), comparison.error(sim.features, held, train)
+
+
+def shown(train_error: float, held_error: float) -> str:
+    return f"training {train_error:6.2f}  held-out {held_error:6.2f}"
+
+
 def print_grid(measured: Measured, phases: np.ndarray, shifted: list[int], e: float,
                levels: int) -> None:
     """The training and held-out errors of the levels^3 sets of phase shifts of the wheels
     `shifted` (indices into phases) at eccentricity e: how far the training runs tell
     realisations apart, and how rugged the error is over them."""
-    comparison, train, held = measured.comparison, measured.train, measured.held
     steps = np.arange(levels) / levels * 2 * np.pi
     steps = np.where(steps > np.pi, steps - 2 * np.pi, steps)
-    errors = []
+    found = []
     for point in itertools.product(steps, repeat=len(shifted)):
         turned = phases.copy()
         turned[shifted] += point
-        sim = measured.simulated(model_factory(phased(turned, e)))
-        errors.append((comparison.error(sim.features, train),
-                       comparison.error(sim.features, held, train), point))
-    errors.sort()
-    print(f"  {len(errors)} phase-shift sets (front-left, front-right, rear-right) "
+        found.append((*errors(measured, model_factory(phased(turned, e))), point))
+    found.sort()
+    print(f"  {len(found)} phase-shift sets (front-left, front-right, rear-right) "
           f"from realisation 0:")
-    for train_error, held_error, point in errors[:6]:
-        print(f"  shifts {np.round(point, 2)} rad  training {train_error:6.2f}  "
-              f"held-out {held_error:6.2f}")
-    training = [err[0] for err in errors]
+    for train_error, held_error, point in found[:6]:
+        print(f"  shifts {np.round(point, 2)} rad  " + shown(train_error, held_error))
+    training = [err[0] for err in found]
     print(f"  training errors: median {np.median(training):.2f}, worst {max(training):.2f}",
           flush=True)
 
