@@ -6,6 +6,7 @@ from __future__ import annotations
 import ast
 import importlib.metadata
 import re
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from packaging.requirements import Requirement
 from conftest import REPO
 
 import update_readme_tables
+from installed_copy import stale_files
 
 PACKAGE = REPO / "python" / "skidsteer"
 # The tracked tree: the repository stays cloneable in seconds (issue 17: < 15 MB), and a
@@ -173,3 +175,29 @@ def test_every_declared_dependency_is_pinned_in_the_constraints():
     for r in declared:
         if canonical(r.name) in pins:
             assert r.specifier.contains(pins[canonical(r.name)]), (r, pins[canonical(r.name)])
+
+
+def test_an_installed_copy_older_than_the_checkout_is_named_file_by_file(tmp_path):
+    """The session's guard (tests/installed_copy.py): a copy of the checkout is not
+    stale; an edited module, a module the copy lacks and an edited model are named,
+    and the copy's own plugin library is not a difference."""
+    repo = tmp_path / "repo"
+    for rel, text in {"python/skidsteer/__init__.py": "x = 1\n",
+                      "python/skidsteer/diagnosis/fit.py": "y = 2\n",
+                      "models/robot/robot.xml": "<mujoco/>\n"}.items():
+        (repo / rel).parent.mkdir(parents=True, exist_ok=True)
+        (repo / rel).write_text(text)
+    installed = tmp_path / "site-packages" / "skidsteer"
+    shutil.copytree(repo / "python" / "skidsteer", installed)
+    shutil.copytree(repo / "models", installed / "models")
+    (installed / "libskidsteer_tire.so").write_bytes(b"\0")
+    (installed / "__pycache__").mkdir()
+    (installed / "__pycache__" / "fit.cpython-311.pyc").write_bytes(b"\0")
+    assert stale_files(installed, repo) == []
+
+    (repo / "python/skidsteer/diagnosis/fit.py").write_text("y = 3\n")
+    (repo / "python/skidsteer/cli.py").write_text("z = 0\n")
+    (repo / "models/robot/robot.xml").write_text("<mujoco model='edited'/>\n")
+    assert stale_files(installed, repo) == ["python/skidsteer/cli.py",
+                                            "python/skidsteer/diagnosis/fit.py",
+                                            "models/robot/robot.xml"]
