@@ -4,6 +4,9 @@
 
 - README.md, between <!-- reproduction-table --> and <!-- /reproduction-table -->:
   the reproduction summary of docs/reproduction/results.json;
+- README.md, between <!-- fresh-draws --> and <!-- /fresh-draws -->: diagnose's rates
+  on the generalisation benchmark's fresh draws and the ceiling's (docs/diagnose-*.jsonl,
+  judged by the verdict rules as they are now; --fresh-draws-only writes this one alone);
 - plugin/tire/README.md, between <!-- attributes-table --> and its end marker, and
   <!-- floors-table -->: the tire plugin's attributes and floors, from the plugin's
   own contract (skidsteer.robot.tire; tests/test_repository.py checks they match).
@@ -14,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import sys
 from pathlib import Path
 
 from skidsteer.data.files import write_atomically
@@ -22,9 +26,18 @@ from skidsteer.reports.reproduction import summary_rows
 from skidsteer.robot import tire
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "scripts" / "bench"))
+
+import bench_diagnose_ceiling as ceiling  # noqa: E402
+import bench_diagnose_generalisation as generalisation  # noqa: E402
+
 PLUGIN_README = REPO / "plugin" / "tire" / "README.md"
+# the README's fresh draws: from the first drawn after the held-out errors became
+# medians over 5 starts
+FRESH_FROM = 1080
 MARKERS = {
     "reproduction": ("<!-- reproduction-table -->", "<!-- /reproduction-table -->"),
+    "fresh-draws": ("<!-- fresh-draws -->", "<!-- /fresh-draws -->"),
     "attributes": ("<!-- attributes-table -->", "<!-- /attributes-table -->"),
     "floors": ("<!-- floors-table -->", "<!-- /floors-table -->"),
 }
@@ -33,6 +46,47 @@ MARKERS = {
 def plugin_tables() -> dict[str, str]:
     """The plugin README's generated tables, by marker name."""
     return {"attributes": tire.attributes_markdown(), "floors": tire.floors_markdown()}
+
+
+def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.jsonl",
+                      rows_of_ceiling: Path = REPO / "docs" / "diagnose-ceiling.jsonl",
+                      draws_from: int = FRESH_FROM) -> str:
+    """The README's table of diagnose on fresh draws: the draws from draws_from on and the
+    whole table, each as the two benchmarks' summaries count them."""
+    newest = generalisation.newest_rows(results)
+    truths = list(generalisation.newest_rows(rows_of_ceiling).values())
+    verdicts = [ceiling.judged(r, newest[r["case"]]) for r in truths]
+
+    def rate(k: int, n: int) -> str:
+        return generalisation.fraction(k, n).replace("%)", " %)")
+
+    def right(rows: list[dict]) -> str:
+        return rate(sum(generalisation._outcome(r) == "right" for r in rows), len(rows))
+
+    def line(label: str, rows: list[dict], which: list[int]) -> list[str]:
+        rated = generalisation.groups(rows)
+        truth = ceiling.counts([truths[i] for i in which], [verdicts[i] for i in which])
+        wrong = sum(generalisation._outcome(r) == "wrong" for r in rows)
+        return [label, str(len(rows)),
+                f"{right(rated['effects'])}; {right(rated['judged'])} where the held-out "
+                "command shows it", str(wrong),
+                f"{right(rated['nulls']).split(' (')[0]}; "
+                f"{right(rated['outside']).split(' (')[0]}",
+                f"{rate(*truth['named'])}; {rate(*truth['judged'])}", rate(*truth['diagnose'])]
+
+    rows = list(newest.values())
+    later = generalisation.drawn_from(rows, draws_from)
+    seeds = [r["seed"] for r in later]
+    return _table(
+        ["draws", "datasets", "clear causes named right", "wrong names",
+         "nulls no-discrepancy; fans unexplained",
+         "the truth itself would be named (as in the third column)",
+         "diagnose, where the truth would be named"],
+        [line(f"{min(seeds)}-{max(seeds)} (drawn after the held-out errors became medians "
+              "over 5 starts)", later,
+              ceiling.drawn_from_indices(truths, newest, draws_from)),
+         line("all (every code version, a draw's newest row)", rows,
+              list(range(len(truths))))])
 
 
 def between_markers(text: str, name: str) -> str | None:
@@ -48,7 +102,13 @@ def main() -> None:
     parser.add_argument("--readme", default=str(REPO / "README.md"))
     parser.add_argument("--plugin-only", action="store_true",
                         help="only the plugin README's tables (no results.json needed)")
+    parser.add_argument("--fresh-draws-only", action="store_true",
+                        help="only the README's table of diagnose on fresh draws")
     args = parser.parse_args()
+    if not args.plugin_only:
+        write_between_markers(Path(args.readme), *MARKERS["fresh-draws"], fresh_draws_table())
+    if args.fresh_draws_only:
+        return
     for name, body in plugin_tables().items():
         write_between_markers(PLUGIN_README, *MARKERS[name], body)
     if args.plugin_only:

@@ -15,6 +15,7 @@ sys.path.insert(0, str(REPO / "scripts" / "bench"))
 
 import bench_diagnose_ceiling  # noqa: E402
 import bench_diagnose_generalisation  # noqa: E402
+import update_readme_tables  # noqa: E402  (scripts/, on sys.path by conftest)
 
 DOCS = REPO / "docs"
 
@@ -50,3 +51,13 @@ def test_the_committed_benchmark_table_is_its_rows(name, tmp_path, capsys):
     assert _body(regenerated.read_text()) == _body(committed), (
         f"docs/diagnose-{name}.md is not its rows' table; regenerate it with the command "
         "its first paragraph gives")
+
+
+def test_the_readme_fresh_draw_table_is_the_committed_rows():
+    """The README's rates on fresh draws are the two benchmarks' rows as the rules judge
+    them now (a rule change that moves a row moves the README too)."""
+    shown = update_readme_tables.between_markers((REPO / "README.md").read_text(),
+                                                 "fresh-draws")
+    assert shown == update_readme_tables.fresh_draws_table(), (
+        "README.md's fresh-draw table is not its rows'; regenerate it with "
+        "python scripts/update_readme_tables.py --fresh-draws-only")

@@ -711,6 +711,23 @@ def test_verdict_rules():
                                          n_train=6)
     assert result == "explained" and named.cause == "a"
 
+    # a runner-up as close held-out (1.64 against 1.37: a gap of 0.81 in score, under a
+    # quarter of the base model's excess, 2.06; both within 2 sigma) is no rival when the
+    # training runs do not tell it from the base model: its training error, 2.14, is the
+    # base model's 2.07 or worse (issue 21's draw 1177, friction_levels beside a mast at
+    # the prior's stiffest)
+    fits = [_fit("a", 1.37), _fit("b", 1.64)]
+    fits[0].train_error, fits[1].train_error = 1.43, 2.14
+    result, named, reason = diagnosis.verdict(2.11, 3.18, fits, noise=0.89, base_train=2.07,
+                                              n_train=6)
+    assert result == "explained" and named.cause == "a"
+    assert "runner-up b reaches 1.64, but the training runs do not tell it" in reason
+    # ... and is one when they do (training error 1.60: 2.07 is outside its bound, 1.73)
+    fits[1].train_error = 1.60
+    result, named, reason = diagnosis.verdict(2.11, 3.18, fits, noise=0.89, base_train=2.07,
+                                              n_train=6)
+    assert (result, named) == ("unexplained", None) and "about equally well" in reason
+
     # the held-out runs name the run-out (1.55, the floor 3.40: separated), but the
     # training runs rank the floor first: training scores 1.42^2 + 2 (2 + ln 8) / 6 = 3.38
     # against 1.77^2 + 2 (1 + ln 8) / 6 = 4.16 (issue 21's draw 1126, a rough floor named

@@ -52,8 +52,8 @@ from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_ra
                                             model_factory, simulate_groups)
 from skidsteer.diagnosis.fit import (MIN_GAIN, _score, base_group_errors, gain,  # noqa: E402
                                      median_error, n_parameters, over_starts,
-                                     preferred_in_training, separated, split,
-                                     told_from_base)
+                                     preferred_in_training, rivals, separated,
+                                     split, told_from_base)
 from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
@@ -83,7 +83,8 @@ def _why_not(fits: list, row: dict, removed: float) -> str:
         return "score"
     if not told_from_base(row["base_train"], best, row["n_train"]):
         return "training"
-    if len(fits) > 1 and not separated(row["base_held"], best, fits[1:]):
+    contending = rivals(fits[1:], row["base_train"], row["n_train"])
+    if contending and not separated(row["base_held"], best, contending):
         return "not separated"
     rival = preferred_in_training(best, fits[1:], row["n_train"])
     if rival is not None:
@@ -194,28 +195,42 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
             "code": code_fingerprint()[:12]}
 
 
+def counts(rows: list[dict], verdicts: list[dict]) -> dict[str, tuple[int, int]]:
+    """(k, n) of a summary: the truth named ("named"), the same where the held-out command
+    shows a discrepancy ("judged"), and diagnose right where the truth is named
+    ("diagnose")."""
+    named = [v for v in verdicts if v["named"]]
+    judged = [v for r, v in zip(rows, verdicts) if r["base_held"] > Z_CONSISTENT]
+    return {"named": (len(named), len(rows)),
+            "judged": (sum(v["named"] for v in judged), len(judged)),
+            "diagnose": (sum(v["diagnose"] == "right" for v in named), len(named))}
+
+
 def summary(rows: list[dict], verdicts: list[dict]) -> str:
     """How often the truth would be named, and diagnose where it would, in one sentence."""
-    named = [r for r, v in zip(rows, verdicts) if v["named"]]
-    judged_rows = [(r, v) for r, v in zip(rows, verdicts) if r["base_held"] > Z_CONSISTENT]
-    judged_named = [r for r, v in judged_rows if v["named"]]
-    diagnosed_right = [r for r, v in zip(rows, verdicts) if v["named"] and v["diagnose"] == "right"]
+    rates = counts(rows, verdicts)
     stops = Counter(v["stopped_by"] for v in verdicts if not v["named"])
     return (f"{len(rows)} causes' datasets clear of the trials' noise: the truth itself would "
-            f"be named in {fraction(len(named), len(rows))}; of those whose held-out command "
+            f"be named in {fraction(*rates['named'])}; of those whose held-out command "
             f"shows a discrepancy (base error above {Z_CONSISTENT:g}), "
-            f"{fraction(len(judged_named), len(judged_rows))}.  diagnose named "
-            f"{fraction(len(diagnosed_right), len(named))} of the datasets where the truth would "
+            f"{fraction(*rates['judged'])}.  diagnose named "
+            f"{fraction(*rates['diagnose'])} of the datasets where the truth would "
             "be named.  Where the truth is not named, the rule that stops it: "
             + (", ".join(f"{k} {n}" for k, n in sorted(stops.items())) or "none") + ".")
+
+
+def drawn_from_indices(rows: list[dict], diagnosed: dict[str, dict],
+                       draws_from: int | None) -> list[int]:
+    """The indices of the rows of drawn cases from seed draws_from on (none without one)."""
+    return [i for i, r in enumerate(rows) if draws_from is not None
+            and r["case"] not in FIXED and diagnosed[r["case"]]["seed"] >= draws_from]
 
 
 def report(rows: list[dict], diagnosed: dict[str, dict], draws_from: int | None = None) -> str:
     """The table; diagnosed: the generalisation benchmark's newest row per case; the
     summary also of the draws from seed draws_from on, if given."""
     verdicts = [judged(r, diagnosed[r["case"]]) for r in rows]
-    later = [i for i, r in enumerate(rows) if draws_from is not None
-             and r["case"] not in FIXED and diagnosed[r["case"]]["seed"] >= draws_from]
+    later = drawn_from_indices(rows, diagnosed, draws_from)
     lines = [table(["case", "effect", "floor", "deg/s", "base held-out", "truth held-out",
                     "truth removes", "fit held-out", "with the truth", "diagnose"],
                    [[r["case"], r["effect"], r["floor"],

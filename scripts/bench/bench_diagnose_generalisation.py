@@ -184,8 +184,12 @@ def _recovery(row: dict) -> str:
     if _outcome(row) != "right" or row["effect"] not in causes.CAUSES:
         return "-"
     main = causes.get(row["effect"]).main.name
-    return (f"{row['parameters'][main]:.3g} / {row['truth'][main]:.3g} "
-            f"({row['parameters'][main] / row['truth'][main]:.2f}x)")
+    # the named fit's, from the ranking: a row named only under a rule added after it was
+    # written keeps no "parameters" of its own
+    fitted = next((f["parameters"] for f in row.get("ranking", [])
+                   if f["cause"] == row["effect"] and "parameters" in f),
+                  row["parameters"])[main]
+    return f"{fitted:.3g} / {row['truth'][main]:.3g} ({fitted / row['truth'][main]:.2f}x)"
 
 
 def _versions(rows: list[dict]) -> list[tuple[str, int]]:
@@ -221,28 +225,41 @@ def _clear(rows: list[dict], code: str | None = None) -> list[dict]:
             and code in (None, r.get("code", "not recorded"))]
 
 
+def groups(rows: list[dict]) -> dict[str, list[dict]]:
+    """The rows a summary rates: the causes clear of the noise ("effects"), those of them
+    whose held-out command shows a discrepancy ("judged"), the nulls and the outside
+    effects clear of the noise."""
+    effects = _clear(rows)
+    return {"effects": effects, "judged": [r for r in effects if not _held_out_quiet(r)],
+            "nulls": [r for r in rows if r["effect"] is None],
+            "outside": [r for r in rows if r["effect"] in OUTSIDE_EFFECTS
+                        and _outcome(r) != "inside noise"]}
+
+
 def summary(rows: list[dict]) -> str:
     """The outcomes of rows in one sentence: counts, the clear causes' rate of right names
     (with and without the held-out-quiet ones), the nulls and the outside effects."""
     counts = {k: sum(_outcome(r) == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
-    effects = _clear(rows)
-    judged = [r for r in effects if not _held_out_quiet(r)]
-    nulls = [r for r in rows if r["effect"] is None]
-    outside = [r for r in rows if r["effect"] in OUTSIDE_EFFECTS
-               and _outcome(r) != "inside noise"]
+    rated = groups(rows)
     return (f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
             f"{counts['missed']} missed, {counts['inside noise']} inside the trials' noise; "
-            f"causes clear of the noise named right in {_rate(effects)}; of those whose "
-            f"held-out command shows a discrepancy (base error above {Z_CONSISTENT:g}), "
-            f"{_rate(judged)}; nulls no-discrepancy in {_rate(nulls)}; outside effects "
-            f"clear of the noise unexplained in {_rate(outside)}.")
+            f"causes clear of the noise named right in {_rate(rated['effects'])}; of those "
+            f"whose held-out command shows a discrepancy (base error above "
+            f"{Z_CONSISTENT:g}), {_rate(rated['judged'])}; nulls no-discrepancy in "
+            f"{_rate(rated['nulls'])}; outside effects clear of the noise unexplained in "
+            f"{_rate(rated['outside'])}.")
+
+
+def drawn_from(rows: list[dict], draws_from: int | None) -> list[dict]:
+    """The drawn rows (not the fixed cases) from seed draws_from on (none without one)."""
+    return [r for r in rows if draws_from is not None and r["case"] not in FIXED
+            and r["seed"] >= draws_from]
 
 
 def report(rows: list[dict], draws_from: int | None = None) -> str:
     """The table and its summary (also of the draws from seed draws_from on, if given)."""
-    later = [r for r in rows if draws_from is not None and r["case"] not in FIXED
-             and r["seed"] >= draws_from]
+    later = drawn_from(rows, draws_from)
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
                    [[r["case"], r["effect"] or "(none)", r["floor"],

@@ -97,7 +97,17 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 # where no other candidate is: the held-out runs then tell the two apart whatever the
 # base model's excess (added in issue 21 after draws 1030 and 1033 of its benchmark:
 # frame 1.58 vs friction 2.48 and run-out 1.74 vs roughness 2.93 held-out, against
-# base errors of 5.2-5.6, were not named; judged on draws it had not seen)
+# base errors of 5.2-5.6, were not named; judged on draws it had not seen).  The others
+# are the rival explanations: the fits the training runs tell from the base model
+# (told_from_base, the test the named cause passes too).  A fit the training runs do not
+# tell from the base model explains the held-out runs alone, with parameters the training
+# runs leave free, and the named cause explains both halves better (issue 21's draw 1177:
+# mu_s 0.49 on tile, friction_levels fitted at 0.49, held-out 3.18 -> 1.37, training
+# 2.07 -> 1.43, was not named beside a mast fitted at the prior's stiffest, 3000 N m/rad,
+# held-out 1.64 and training 2.14, worse than the base model's.  Added after seeing it;
+# judged again on every stored row of the benchmark without simulating, it changes two,
+# 1177 and 1175, both missed and now named right, and names nothing wrong; judged on the
+# draws after 1177)
 SEPARATION = 0.25
 # ... and the training runs tell it from the base model: the base model's training error
 # (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n),
@@ -626,6 +636,12 @@ def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
+def rivals(others: list[Fit], base_train: float, n_train: int) -> list[Fit]:
+    """The other fits that are rival explanations (SEPARATION): those the training runs
+    tell from the base model, in the given order."""
+    return [f for f in others if told_from_base(base_train, f, n_train)]
+
+
 def n_parameters(cause: str, n_fitted: int) -> float:
     """The parameters a fit of `cause` pays for (_score): its n_fitted fitted ones, and
     ln(REALISATIONS) for a chosen realisation (a cause with a random geometry; a name not
@@ -663,7 +679,7 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
     the most likely cause when it removes at least MIN_GAIN of the held-out discrepancy,
     its score beats the base model's (the held-out error squared: no parameter), the
     training runs tell it from the base model (told_from_base), it is told apart from
-    the others (separated) and the training runs do not prefer another
+    the others the training runs tell from the base model (rivals, separated) and the training runs do not prefer another
     (preferred_in_training: its training score is the lowest too); it is then named,
     "explained" when its held-out error is within Z_EXPLAINED and "partly-explained"
     when it is not (it removes most of a large discrepancy and leaves a part no
@@ -725,10 +741,11 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
             f"fit's profile bound {best.train_error * np.sqrt(profile_factor(n_train)):.2f}); "
             f"the held-out gain ({base_held:.2f} -> {best.held_out_error:.2f}) alone does not "
             "establish it")
-    if len(fits) > 1 and not separated(base_held, best, fits[1:]):
+    contending = rivals(fits[1:], base_train, n_train)
+    if contending and not separated(base_held, best, contending):
         return "unexplained", None, (
-            f"{best.cause} and {fits[1].cause} explain the data about equally well "
-            f"(held-out {best.held_out_error:.2f} vs {fits[1].held_out_error:.2f})")
+            f"{best.cause} and {contending[0].cause} explain the data about equally well "
+            f"(held-out {best.held_out_error:.2f} vs {contending[0].held_out_error:.2f})")
     rival = preferred_in_training(best, fits[1:], n_train)
     if rival is not None:
         return "unexplained", None, (
@@ -739,6 +756,9 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
             f"): the two halves of the data disagree about the cause")
     runner_up = (f"the runner-up {fits[1].cause} reaches {fits[1].held_out_error:.2f}"
                  if len(fits) > 1 else "no other candidate applies")
+    if len(fits) > 1 and fits[1] not in contending:
+        runner_up += (f", but the training runs do not tell it from the base model (training "
+                      f"error {base_train:.2f} -> {fits[1].train_error:.2f})")
     if best.held_out_error > Z_EXPLAINED:
         return "partly-explained", best, (
             f"{best.cause} is the most likely cause: it removes {removed:.0%} of the held-out "
