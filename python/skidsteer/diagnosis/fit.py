@@ -106,8 +106,8 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 # 2.07 -> 1.43, was not named beside a mast fitted at the prior's stiffest, 3000 N m/rad,
 # held-out 1.64 and training 2.14, worse than the base model's.  Added after seeing it;
 # judged again on every stored row of the benchmark without simulating, it changes two,
-# 1177 and 1175, both missed and now named right, and names nothing wrong; judged on the
-# draws after 1177)
+# 1177 and 1175, both missed and now named right, and names nothing wrong; on the fresh
+# draws 1178-1191 it moved no verdict)
 SEPARATION = 0.25
 # ... and the training runs tell it from the base model: the base model's training error
 # (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n),
@@ -679,12 +679,12 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
     the most likely cause when it removes at least MIN_GAIN of the held-out discrepancy,
     its score beats the base model's (the held-out error squared: no parameter), the
     training runs tell it from the base model (told_from_base), it is told apart from
-    the others the training runs tell from the base model (rivals, separated) and the training runs do not prefer another
-    (preferred_in_training: its training score is the lowest too); it is then named,
-    "explained" when its held-out error is within Z_EXPLAINED and "partly-explained"
-    when it is not (it removes most of a large discrepancy and leaves a part no
-    candidate covers: the summary says which features and how far).  Anything else is
-    "unexplained".
+    the others the training runs tell from the base model (rivals, separated) and the
+    training runs do not prefer another (preferred_in_training: its training score is
+    the lowest too); it is then named, "explained" when its held-out error is within
+    Z_EXPLAINED and "partly-explained" when it is not (it removes most of a large
+    discrepancy and leaves a part no candidate covers: the summary says which features
+    and how far).  Anything else is "unexplained".
     """
     if base_error <= Z_CONSISTENT:
         return "no-discrepancy", None, (
