@@ -57,21 +57,17 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
     truths = list(generalisation.newest_rows(rows_of_ceiling).values())
     verdicts = [ceiling.judged(r, newest[r["case"]]) for r in truths]
 
-    def rate(k: int, n: int) -> str:
+    def rate(k: int, n: int) -> str:  # the README writes "85 %"
         return generalisation.fraction(k, n).replace("%)", " %)")
 
-    def right(rows: list[dict]) -> str:
-        return rate(sum(generalisation._outcome(r) == "right" for r in rows), len(rows))
-
     def line(label: str, rows: list[dict], which: list[int]) -> list[str]:
-        rated = generalisation.groups(rows)
+        rated = {k: generalisation.right_of(v) for k, v in generalisation.groups(rows).items()}
         truth = ceiling.counts([truths[i] for i in which], [verdicts[i] for i in which])
         wrong = sum(generalisation._outcome(r) == "wrong" for r in rows)
         return [label, str(len(rows)),
-                f"{right(rated['effects'])}; {right(rated['judged'])} where the held-out "
+                f"{rate(*rated['effects'])}; {rate(*rated['judged'])} where the held-out "
                 "command shows it", str(wrong),
-                f"{right(rated['nulls']).split(' (')[0]}; "
-                f"{right(rated['outside']).split(' (')[0]}",
+                "{} of {}; {} of {}".format(*rated["nulls"], *rated["outside"]),
                 f"{rate(*truth['named'])}; {rate(*truth['judged'])}", rate(*truth['diagnose'])]
 
     rows = list(newest.values())

@@ -214,8 +214,13 @@ def fraction(k: int, n: int) -> str:
     return f"{k} of {n}" + (f" ({k / n:.0%})" if n else "")
 
 
+def right_of(rows: list[dict]) -> tuple[int, int]:
+    """(rows whose outcome is right, rows)."""
+    return sum(_outcome(r) == "right" for r in rows), len(rows)
+
+
 def _rate(rows: list[dict]) -> str:
-    return fraction(sum(_outcome(r) == "right" for r in rows), len(rows))
+    return fraction(*right_of(rows))
 
 
 def _clear(rows: list[dict], code: str | None = None) -> list[dict]:

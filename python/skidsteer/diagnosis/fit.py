@@ -756,7 +756,7 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
             f"): the two halves of the data disagree about the cause")
     runner_up = (f"the runner-up {fits[1].cause} reaches {fits[1].held_out_error:.2f}"
                  if len(fits) > 1 else "no other candidate applies")
-    if len(fits) > 1 and fits[1] not in contending:
+    if len(fits) > 1 and not told_from_base(base_train, fits[1], n_train):
         runner_up += (f", but the training runs do not tell it from the base model (training "
                       f"error {base_train:.2f} -> {fits[1].train_error:.2f})")
     if best.held_out_error > Z_EXPLAINED:
