@@ -61,3 +61,34 @@ def test_the_readme_fresh_draw_table_is_the_committed_rows():
     assert shown == update_readme_tables.fresh_draws_table(), (
         "README.md's fresh-draw table is not its rows'; regenerate it with "
         "python scripts/update_readme_tables.py --fresh-draws-only")
+
+
+def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
+    def row(effect, truth, fit_cause, parameters, fitted):
+        return {"effect": effect, "truth": truth,
+                "ranking": [{"cause": fit_cause, "parameters": parameters,
+                             "fitted": fitted}]}
+
+    rows = [row("slip_lambda_max", {"lambda_max": 0.005}, "slip_lambda_max",
+                {"lambda_max": 0.006}, ["lambda_max"]) for _ in range(6)]
+    rows += [
+        # below the hidden value; a tie (dropped from the sign test, kept in the median)
+        row("slip_lambda_max", {"lambda_max": 0.005}, "slip_lambda_max",
+            {"lambda_max": 0.004}, ["lambda_max"]),
+        row("slip_lambda_max", {"lambda_max": 0.005}, "slip_lambda_max",
+            {"lambda_max": 0.005}, ["lambda_max"]),
+        # another cause's fit, and a parameter held at its prior: not counted
+        row("slip_lambda_max", {"lambda_max": 0.005}, "friction_levels",
+            {"mu_static": 0.5}, ["mu_static"]),
+        row("sensor_mount", {"frequency_hz": 20.0, "damping_ratio": 0.1}, "sensor_mount",
+            {"frequency_hz": 21.0, "damping_ratio": 0.05}, ["frequency_hz"]),
+        {"effect": None, "truth": {}, "ranking": []}]
+    found = {(c["cause"], c["parameter"]): c for c in bench_diagnose_generalisation.recovery(rows)}
+    assert set(found) == {("slip_lambda_max", "lambda_max"), ("sensor_mount", "frequency_hz")}
+    slip = found["slip_lambda_max", "lambda_max"]
+    assert (slip["fits"], slip["above"]) == (8, 6)
+    assert slip["median"] == pytest.approx(1.2)
+    # 6 above, 1 below: two-sided sign test 2 (1 + 7) / 2^7 = 0.125
+    assert slip["p"] == pytest.approx(0.125)
+    assert "| slip_lambda_max | lambda_max | 8 | 6 | 1.20 |" in \
+        bench_diagnose_generalisation.recovery_table(rows)

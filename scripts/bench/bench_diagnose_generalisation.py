@@ -55,6 +55,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -262,6 +263,43 @@ def drawn_from(rows: list[dict], draws_from: int | None) -> list[dict]:
             and r["seed"] >= draws_from]
 
 
+def recovery(rows: list[dict]) -> list[dict]:
+    """Per hidden cause and parameter: how its fit recovers the hidden value, over every
+    row whose ranking holds the hidden cause's fit with that parameter fitted (named or
+    not: the fit is there whatever the verdict).  A parameter held at its prior is not
+    counted.  above: fits above the hidden value; p: the two-sided sign test of as many
+    above as below (scipy.stats.binomtest), ties dropped."""
+    ratios: dict[tuple[str, str], list[float]] = {}
+    for r in rows:
+        fit = next((f for f in r.get("ranking", []) if f["cause"] == r["effect"]
+                    and "parameters" in f), None)
+        if fit is None or not r.get("truth"):
+            continue
+        for name, hidden in r["truth"].items():
+            if name in fit.get("fitted", []) and hidden:
+                ratios.setdefault((r["effect"], name), []).append(
+                    fit["parameters"][name] / hidden)
+    out = []
+    for (cause, name), values in sorted(ratios.items()):
+        v = np.array(values)
+        above, below = int(np.sum(v > 1)), int(np.sum(v < 1))
+        out.append({"cause": cause, "parameter": name, "fits": len(v), "above": above,
+                    "median": float(np.median(v)),
+                    "quartiles": tuple(float(q) for q in np.quantile(v, [0.25, 0.75])),
+                    "p": float(stats.binomtest(above, above + below).pvalue)
+                    if above + below else 1.0})
+    return out
+
+
+def recovery_table(rows: list[dict]) -> str:
+    """recovery() as a table."""
+    return table(["cause", "parameter", "fits", "above the hidden value",
+                  "fitted / hidden: median", "middle half", "sign test p"],
+                 [[c["cause"], c["parameter"], str(c["fits"]), str(c["above"]),
+                   f"{c['median']:.2f}", f"{c['quartiles'][0]:.2f}-{c['quartiles'][1]:.2f}",
+                   f"{c['p']:.3f}"] for c in recovery(rows)]).rstrip()
+
+
 def report(rows: list[dict], draws_from: int | None = None) -> str:
     """The table and its summary (also of the draws from seed draws_from on, if given)."""
     later = drawn_from(rows, draws_from)
@@ -278,6 +316,10 @@ def report(rows: list[dict], draws_from: int | None = None) -> str:
     if later:
         lines.append(f"Draws from {draws_from} on ({min(r['seed'] for r in later)}-"
                      f"{max(r['seed'] for r in later)}), {summary(later)}")
+    lines += ["", "How the hidden cause's fit recovers each fitted parameter, over every row "
+              "whose ranking holds it (named or not; a parameter held at its prior is not "
+              "counted; p: the two-sided sign test of fits above against below the hidden "
+              "value):", "", recovery_table(rows), ""]
     lines += [
              "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
              + "; ".join(f"{code} for {n} ({_rate(_clear(rows, code))} clear causes named "
