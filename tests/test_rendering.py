@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import subprocess
 import sys
@@ -42,15 +43,24 @@ def test_offscreen_rendering_with_egl(tmp_path):
     assert not_blank(frame)
 
 
-def _start_xvfb(display: str) -> subprocess.Popen:
-    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+def _start_xvfb() -> tuple[subprocess.Popen, str]:
+    """An Xvfb server on a free display, and that display, once it accepts clients: Xvfb
+    writes the display's number to -displayfd when it is ready to connect.  (Waiting for
+    the socket file instead failed once in a fresh clone under load, three jobs on two
+    cores: the viewer could not open display :77 though the file existed, which it does
+    from bind() on; a fixed display also meets the lock a killed server leaves.)"""
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0",
+                               "1024x768x24", "-nolisten", "tcp"], pass_fds=(write_end,),
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    for _ in range(50):
-        if os.path.exists(f"/tmp/.X11-unix/X{display[1:]}"):
-            return server
-        time.sleep(0.1)
+    os.close(write_end)
+    with os.fdopen(read_end) as ready:
+        if select.select([ready], [], [], 30)[0]:
+            number = ready.readline().strip()
+            if number:
+                return server, f":{number}"
     server.kill()
-    raise RuntimeError("Xvfb did not start")
+    raise RuntimeError("Xvfb did not report a display within 30 s")
 
 
 def test_viewer_opens_under_xvfb_and_draws_the_robot():
@@ -60,8 +70,7 @@ def test_viewer_opens_under_xvfb_and_draws_the_robot():
         pytest.skip("needs Xvfb (apt-get install xvfb); CI installs it and requires this test")
     from PIL import ImageGrab
 
-    display = ":77"
-    server = _start_xvfb(display)
+    server, display = _start_xvfb()
     env = dict(os.environ, DISPLAY=display)
     env.pop("MUJOCO_GL", None)
     viewer = subprocess.Popen([sys.executable, "-m", "skidsteer.cli", "view", "extended"], env=env,
@@ -78,5 +87,5 @@ def test_viewer_opens_under_xvfb_and_draws_the_robot():
     finally:
         viewer.kill()
         viewer.wait(timeout=10)
-        server.kill()
+        server.terminate()  # lets Xvfb remove its lock and socket
         server.wait(timeout=10)
