@@ -26,7 +26,6 @@ import numpy as np
 
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis import fit as F
-from skidsteer.diagnosis.comparison import Comparison, model_factory, simulate_groups
 from skidsteer.reports.diagnosis import _observed
 from skidsteer.simulation.backends import LocalBackend
 from skidsteer.simulation.cache import SimulationCache
@@ -41,16 +40,9 @@ def profile(dataset: Path, cause_name: str, values: list[float], *, realisation:
     cause's other parameters at held_values, or their priors' values."""
     backend, chain = LocalBackend(threads), SensorChain()
     cache = SimulationCache(cache_dir) if cache_dir else None
-    observed = _observed(dataset, None)
+    observed, comparison, _, base_starts, _, train, held = F.base_and_split(
+        _observed(dataset, None), timestep=None, chain=chain, backend=backend, cache=cache)
     groups, duration = observed.groups, observed.duration_s
-    base_model = model_factory()
-    base = simulate_groups([(base_model, groups)], duration, chain, backend=backend,
-                           cache=cache, signals=False)[0]
-    observed = observed.with_wheel_rates(base.wheel_rates_hz)
-    comparison = Comparison(observed)
-    base_starts = F.over_starts(base, base_model, groups, list(range(len(groups))), duration,
-                                chain, backend, None, cache)
-    train, held = F.split(observed, F.base_group_errors(comparison, base_starts))
     cause = causes.get(cause_name)
     evaluate = F._Evaluations(cause, comparison, groups, duration, train, None, chain,
                               backend, None, cache, search_starts=F.STARTS)

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy import optimize
@@ -933,6 +933,40 @@ def contenders(fits: list[Fit]) -> list[int]:
     return [i for i, f in enumerate(fits) if i < REFINE_CONTENDERS or f.design_better]
 
 
+class BaseAndSplit(NamedTuple):
+    """base_and_split's result."""
+    observed: Observed  # with the base model's wheel rates
+    comparison: Comparison
+    base: Simulated  # every command from start 0
+    base_starts: list[Simulated]  # over_starts: every command from each of STARTS starts
+    group_errors: np.ndarray  # base_group_errors
+    train: np.ndarray
+    held: np.ndarray
+
+
+def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorChain,
+                   backend, progress=None, cache=None, signals: bool = False
+                   ) -> BaseAndSplit:
+    """The base model simulated on every command from every start, the comparison it
+    reads the records with, and the split of training and held-out runs (diagnose's first
+    two steps; scripts/bench/profile_fit.py reads them too)."""
+    groups = observed.groups
+    base_model = model_factory(timestep=timestep)
+    base = simulate_groups([(base_model, groups)], observed.duration_s,
+                           chain, backend=backend, progress=progress, cache=cache,
+                           signals=signals)[0]
+    # the records carry no wheel speeds: their wheel orders are read at the base model's
+    # actual wheel rates (the command less the servos' droop), where the simulations'
+    # are read at their own
+    observed = observed.with_wheel_rates(base.wheel_rates_hz)
+    comparison = Comparison(observed)
+    base_starts = over_starts(base, base_model, groups, list(range(len(groups))),
+                              observed.duration_s, chain, backend, progress, cache)
+    group_errors = base_group_errors(comparison, base_starts)
+    train, held = split(observed, group_errors)
+    return BaseAndSplit(observed, comparison, base, base_starts, group_errors, train, held)
+
+
 def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *,
                       timestep: float | None = None, chain: SensorChain = SensorChain(),
                       backend, progress: Callable[[int], None] | None = None, cache=None,
@@ -953,20 +987,10 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     groups = observed.groups
     all_runs = np.arange(len(observed.run_group))
     names = candidates or sorted(cause_registry.CAUSES)
-    base_model = model_factory(timestep=timestep)
-    base = simulate_groups([(base_model, groups)], observed.duration_s,
-                           chain, backend=backend, progress=progress, cache=cache,
-                           signals=signals)[0]
-    # the records carry no wheel speeds: their wheel orders are read at the base model's
-    # actual wheel rates (the command less the servos' droop), where the simulations'
-    # are read at their own
-    observed = observed.with_wheel_rates(base.wheel_rates_hz)
-    comparison = Comparison(observed)
-    base_starts = over_starts(base, base_model, groups, list(range(len(groups))),
-                              observed.duration_s, chain, backend, progress, cache)
+    observed, comparison, base, base_starts, group_errors, train, held = base_and_split(
+        observed, timestep=timestep, chain=chain, backend=backend, progress=progress,
+        cache=cache, signals=signals)
     base_error = median_error(comparison, base_starts, all_runs)
-    group_errors = base_group_errors(comparison, base_starts)
-    train, held = split(observed, group_errors)
     base_held = median_error(comparison, base_starts, held, train)
     # as a fit's train_error: the median over the search's starts
     base_train = median_error(comparison, base_starts[:search_starts], train)
