@@ -292,13 +292,13 @@ def recovery(rows: list[dict]) -> list[dict]:
     for (cause, name), values in sorted(ratios.items()):
         v = np.array(values)
         above, below = int(np.sum(v > 1)), int(np.sum(v < 1))
-        held = inside.get((cause, name), [])
+        holds = inside.get((cause, name), [])
         out.append({"cause": cause, "parameter": name, "fits": len(v), "above": above,
                     "median": float(np.median(v)),
                     "quartiles": tuple(float(q) for q in np.quantile(v, [0.25, 0.75])),
                     "p": float(stats.binomtest(above, above + below).pvalue)
                     if above + below else 1.0,
-                    "with_interval": len(held), "inside": int(sum(held))})
+                    "with_interval": len(holds), "inside": int(sum(holds))})
     return out
 
 
