@@ -8,6 +8,7 @@ README would then be wrong) and they keep the miss visible in every run.
 from __future__ import annotations
 
 import math
+import warnings
 
 import pytest
 
@@ -15,6 +16,7 @@ from skidsteer import experiments
 from skidsteer.reports.reproduction import DECAY_TARGET_FACTOR as DECAY_FACTOR_TARGET
 from skidsteer.reports.reproduction import FREQUENCY_TARGET, SPIN_STEADY_N, TABLE_5_2
 from skidsteer.reports.reproduction import MISS_EXPLANATIONS as CAUSES
+from skidsteer.reports.reproduction import _wheel_components_linear
 from skidsteer.robot import Setup
 
 # A strict xfail here is an issue-3 target our model misses for the cause in its
@@ -159,3 +161,24 @@ def test_thesis_variant_differs_where_it_should():
     # springs coupling roll and sway it is not sqrt(8) slower
     ratio = ours["refined_peak_hz"] / thesis["refined_peak_hz"]
     assert 1.1 < ratio < math.sqrt(9.82 / 1.21)
+
+
+def _wheel_runs(peaks_hz: dict[str, list[float]]) -> dict:
+    omegas = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0]
+    return {"runs": [{"floor": "concrete", "mount": "wheel", "omega_deg_s": w,
+                      "rms_m_s2": {a: 1.0 for a in "xyz"},
+                      "top_peaks_hz": {a: [peaks_hz[a][i], None, None] for a in "xyz"}}
+                     for i, w in enumerate(omegas)], "skipped": []}
+
+
+def test_a_peak_that_stays_put_is_not_a_line_moving_with_the_wheels():
+    still = [12.5] * 6  # one frequency at every speed: no correlation to read
+    moving = [1.0, 2.1, 2.9, 4.2, 5.0, 6.1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # pearsonr's ConstantInputWarning would raise
+        r, linear, text = _wheel_components_linear(
+            _wheel_runs({"x": still, "y": moving, "z": still}), "concrete")
+        assert linear and r > 0.99 and "(a_y)" in text
+        r, linear, _ = _wheel_components_linear(
+            _wheel_runs({"x": still, "y": still, "z": still}), "concrete")
+        assert r is None and not linear

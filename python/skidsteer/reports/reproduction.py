@@ -326,7 +326,11 @@ def _wheel_components_linear(analysis, floor):
         for k in range(3):
             pts = [(r["omega_deg_s"], r["top_peaks_hz"][axis][k]) for r in runs
                    if r["top_peaks_hz"][axis][k] is not None and _vibrates(r, axis)]
-            if len(pts) >= max(MIN_TREND_RUNS, len(runs) // 2):
+            # a peak at one frequency whatever the speed (or runs at one speed) has no
+            # correlation to read: it is not a line moving with omega, so it is skipped
+            # (pearsonr would return NaN with a ConstantInputWarning)
+            if len(pts) >= max(MIN_TREND_RUNS, len(runs) // 2) and all(
+                    len(set(values)) > 1 for values in zip(*pts)):
                 rr = stats.pearsonr(*zip(*pts)).statistic
                 if best is None or rr > best:
                     best, best_axis = rr, axis
