@@ -69,11 +69,13 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
                 "ranking": [{"cause": fit_cause, "parameters": parameters, "fitted": fitted,
                              **({"interval": interval} if interval else {})}]}
 
-    # four rows kept their intervals: two hold the hidden value (one on its edge)
+    # five rows kept their intervals: three hold the hidden value (one on its edge, one
+    # by spanning the prior, 0.003-1: open on both sides), two of the four bounded ones
     rows = [row("slip_lambda_max", {"lambda_max": 0.005}, "slip_lambda_max",
                 {"lambda_max": 0.006}, ["lambda_max"], interval) for interval in
             ({"lambda_max": [0.0045, 0.0065]}, {"lambda_max": [0.005, 0.0065]},
-             {"lambda_max": [0.0055, 0.0065]}, {"lambda_max": [0.0052, 0.0061]}, None, None)]
+             {"lambda_max": [0.0055, 0.0065]}, {"lambda_max": [0.0052, 0.0061]},
+             {"lambda_max": [0.003, 1.0]}, None)]
     rows += [
         # below the hidden value; a tie (dropped from the sign test, kept in the median)
         row("slip_lambda_max", {"lambda_max": 0.005}, "slip_lambda_max",
@@ -93,8 +95,9 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
     assert slip["median"] == pytest.approx(1.2)
     # 6 above, 1 below: two-sided sign test 2 (1 + 7) / 2^7 = 0.125
     assert slip["p"] == pytest.approx(0.125)
-    assert (slip["with_interval"], slip["inside"]) == (4, 2)
+    assert (slip["with_interval"], slip["inside"]) == (5, 3)
+    assert (slip["bounded"], slip["bounded_inside"]) == (4, 2)
     assert found["sensor_mount", "frequency_hz"]["with_interval"] == 0
     shown = bench_diagnose_generalisation.recovery_table(rows)
     assert "| slip_lambda_max | lambda_max | 8 | 6 | 1.20 |" in shown
-    assert "| 0.125 | 2 of 4 |" in shown and "| 1.000 | - |" in shown
+    assert "| 0.125 | 3 of 5 | 2 of 4 |" in shown and "| 1.000 | - | - |" in shown

@@ -273,9 +273,12 @@ def recovery(rows: list[dict]) -> list[dict]:
     counted.  above: fits above the hidden value; p: the two-sided sign test of as many
     above as below (scipy.stats.binomtest), ties dropped; with_interval, inside: the rows
     that kept the fit's interval of that parameter (from draw 1201 on) and how many of
-    them hold the hidden value (edges included)."""
+    them hold the hidden value (edges included); bounded, bounded_inside: the same for the
+    intervals bounded on both sides (an open side ends at the prior's bound: no value the
+    fit probed there left the profile bound, so the data do not bound it, and such an
+    interval holds the hidden value by spanning the prior, not by locating it)."""
     ratios: dict[tuple[str, str], list[float]] = {}
-    inside: dict[tuple[str, str], list[bool]] = {}
+    inside: dict[tuple[str, str], list[tuple[bool, bool]]] = {}  # (holds it, bounded)
     for r in rows:
         fit = next((f for f in r.get("ranking", []) if f["cause"] == r["effect"]
                     and "parameters" in f), None)
@@ -287,30 +290,42 @@ def recovery(rows: list[dict]) -> list[dict]:
                     fit["parameters"][name] / hidden)
                 if name in fit.get("interval", {}):
                     low, high = fit["interval"][name]
-                    inside.setdefault((r["effect"], name), []).append(low <= hidden <= high)
+                    prior = _prior(r["effect"], name)
+                    bounded = not (np.isclose(low, prior.low) or np.isclose(high, prior.high))
+                    inside.setdefault((r["effect"], name), []).append(
+                        (low <= hidden <= high, bounded))
     out = []
     for (cause, name), values in sorted(ratios.items()):
         v = np.array(values)
         above, below = int(np.sum(v > 1)), int(np.sum(v < 1))
         holds = inside.get((cause, name), [])
+        bounded = [held for held, both in holds if both]
         out.append({"cause": cause, "parameter": name, "fits": len(v), "above": above,
                     "median": float(np.median(v)),
                     "quartiles": tuple(float(q) for q in np.quantile(v, [0.25, 0.75])),
                     "p": float(stats.binomtest(above, above + below).pvalue)
                     if above + below else 1.0,
-                    "with_interval": len(holds), "inside": int(sum(holds))})
+                    "with_interval": len(holds), "inside": int(sum(h for h, _ in holds)),
+                    "bounded": len(bounded), "bounded_inside": int(sum(bounded))})
     return out
+
+
+def _prior(cause: str, name: str):
+    """The prior (causes.Parameter) of a cause's parameter."""
+    c = causes.get(cause)
+    return next(p for p in (c.main, *c.held) if p.name == name)
 
 
 def recovery_table(rows: list[dict]) -> str:
     """recovery() as a table."""
     return table(["cause", "parameter", "fits", "above the hidden value",
                   "fitted / hidden: median", "middle half", "sign test p",
-                  "hidden inside the interval"],
+                  "hidden inside the interval", "... of those bounded both sides"],
                  [[c["cause"], c["parameter"], str(c["fits"]), str(c["above"]),
                    f"{c['median']:.2f}", f"{c['quartiles'][0]:.2f}-{c['quartiles'][1]:.2f}",
                    f"{c['p']:.3f}",
-                   f"{c['inside']} of {c['with_interval']}" if c["with_interval"] else "-"]
+                   f"{c['inside']} of {c['with_interval']}" if c["with_interval"] else "-",
+                   f"{c['bounded_inside']} of {c['bounded']}" if c["with_interval"] else "-"]
                   for c in recovery(rows)]).rstrip()
 
 
@@ -335,7 +350,9 @@ def report(rows: list[dict], draws_from: int | None = None) -> str:
               "counted; p: the two-sided sign test of fits above against below the hidden "
               "value; the interval column counts the rows that kept the fit's intervals, "
               "from draw 1201 on: a profile bound, Delta chi^2 = 1 with each training run one "
-              "observation, so about 68 % would hold the hidden value if it were calibrated):",
+              "observation, so about 68 % would hold the hidden value if it were calibrated; the "
+              "last column counts the intervals bounded on both sides, an open side ending at "
+              "the prior's bound):",
               "", recovery_table(rows), ""]
     lines += [
              "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
