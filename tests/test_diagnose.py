@@ -34,8 +34,8 @@ from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Compari
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
                                      REFINE_STEPS, STARTS, _interval,
-                                     contenders, fit_every_parameter, median_error,
-                                     refine_parameters)
+                                     contenders, fit_every_parameter, interval_bound,
+                                     median_error, profile_factor, refine_parameters)
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
@@ -403,6 +403,32 @@ def test_an_interval_follows_a_quadratic_profile_between_the_probes():
     half = np.sqrt((1 / 9) / 50)
     assert p.to_unit(lo) == pytest.approx(0.3 - half, abs=1e-9)
     assert p.to_unit(hi) == pytest.approx(0.3 + half, abs=1e-9)
+
+
+def test_an_interval_is_read_against_the_fits_own_start_to_start_scatter():
+    p = causes.get("friction_levels").main  # mu_static, 0.4-1.2, linear
+    # one evaluation per value (one start each) on a noisy plateau that rises steeply at
+    # 0.56; the fit is the luckiest draw, 2.18 at 0.495 (issue 21's draw 1204: its
+    # training errors at these values, from one start each, measured with
+    # scripts/bench/profile_fit.py; five starts at 0.495 scored 2.20-3.10)
+    profile = [(0.40, 2.80), (0.45, 2.89), (0.47, 2.41), (0.48, 2.48), (0.495, 2.18),
+               (0.52, 2.45), (0.56, 4.59), (0.64, 4.94)]
+    lucky = _interval(profile, 6, p)
+    assert lucky[0] > 0.48 and lucky[1] < 0.52  # only the lucky draw's neighbourhood
+    starts = [2.18, 3.10, 2.26, 2.99, 2.28]  # the fit's training error from each start
+    bound = interval_bound(starts, 2.18, 6)
+    e2 = np.square(starts)
+    assert bound == pytest.approx(np.median(e2) * 7 / 6 + np.std(e2, ddof=1))
+    low, high = _interval(profile, 6, p, bound)
+    assert low == p.low and 0.52 < high < 0.56  # the plateau, open below: 0.4 is inside
+    # a fit whose starts agree keeps the single-start bound, and the bound never falls
+    # below it (a start-0 draw worse than the others' median)
+    assert interval_bound([1.5] * 5, 1.5, 6) == pytest.approx(1.5 ** 2 * profile_factor(6))
+    assert interval_bound([2.0, 1.2, 1.2, 1.2, 1.2], 2.0, 6) == pytest.approx(
+        4.0 * profile_factor(6))
+    # an evaluation that is a median over 4 starts scatters about half as much
+    assert interval_bound(starts, 2.18, 6, search_starts=4) == pytest.approx(
+        np.median(e2) * 7 / 6 + np.std(e2, ddof=1) / 2)
 
 
 def test_generated_truths_draw_the_held_parameters_from_their_priors():
@@ -883,6 +909,13 @@ def test_diagnose_writes_its_outputs(written):
     config = dict(spec.plugins[0].config)
     assert float(config["lambda_max"]) == pytest.approx(saved["parameters"]["lambda_max"])
     assert m.nu == 2
+    # its interval is read against its training error from each start, the first the
+    # search's own (from rest), and holds the fitted value
+    named = saved["ranking"][0]
+    assert len(named["train_errors_over_starts"]) == STARTS
+    assert named["train_errors_over_starts"][0] == pytest.approx(named["train_error"])
+    low, high = saved["intervals"]["lambda_max"]
+    assert low <= saved["parameters"]["lambda_max"] <= high
 
 
 def _comparable(diagnosis_json: dict) -> dict:
@@ -903,10 +936,11 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
     data, whole, whole_result = written
     # the base model on the 3 commands from STARTS starts, the fit's points (5 grid, then
     # Brent to its tolerance) on the 2 training commands, the fit's end on the held-out
-    # one from STARTS starts
+    # one from STARTS starts and on the training ones from the STARTS - 1 others (the
+    # scatter its intervals are read against)
     points = len(whole_result["ranking"][0]["profile"])
     assert GRID_POINTS < points <= GRID_POINTS + REFINE_MAX_STEPS
-    simulated = 3 * STARTS + points * 2 + STARTS
+    simulated = 3 * STARTS + points * 2 + STARTS + (STARTS - 1) * 2
     assert whole_result["simulations"] == {"simulated": simulated, "reused": 0,
                                            "cache": str(whole / CACHE_DIR)}
     out = tmp_path / "out"

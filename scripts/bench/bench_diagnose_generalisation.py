@@ -172,9 +172,11 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "noise": result["gain"]["noise_error"],
             "base_train": result["baseline_error_training"], "n_train": result["training_runs"],
             # the intervals too (from fresh draws 1201 on): recovery() counts how often they
-            # hold the hidden value
+            # hold the hidden value; and the training errors over the starts they are read
+            # against (from draw 1208 on)
             "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
-                                           "fitted", "parameters", "interval")}
+                                           "fitted", "parameters", "interval",
+                                           "train_errors_over_starts")}
                         for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],
                                result["baseline_error_all_runs"]),

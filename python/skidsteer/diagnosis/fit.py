@@ -22,7 +22,8 @@
    correlation length, ...; fit_every_parameter: a bounded pattern search from
    the main fit or a coarse design's best point where a cause has one, and again
    from the fit's mirror image where a cause has one), each with an interval from
-   the error's profile through the fit.
+   the error's profile through the fit, read against the fit's own start-to-start
+   scatter (with_start_scatter, interval_bound).
 5. Each fit is scored on the held-out runs, plus an AIC-style penalty per fitted
    parameter (and ln(REALISATIONS) for a chosen realisation); the two best are
    also simulated together (fit_pair); the verdict follows VERDICT RULES below.
@@ -111,8 +112,10 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 SEPARATION = 0.25
 # ... and the training runs tell it from the base model: the base model's training error
 # (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n),
-# the bound its intervals use (profile_factor): the base model, the cause at its null, is not
-# among the parameter values the training runs allow.  Without it a cause fitted next to
+# (profile_factor): the base model, the cause at its null, is not among the parameter
+# values the training runs allow.  The intervals read a wider bound, widened by the fit's
+# start-to-start scatter (interval_bound, added after this rule); the rule keeps the
+# bound it was judged with on the benchmark, both sides of it read from one start.  Without it a cause fitted next to
 # its null value can be named on the held-out runs' scatter alone (issue 21's draw 1106:
 # an unbalanced fan, base error 2.13, named slip_lambda_max at 0.087 for the base model's
 # 0.1, 51 % removed; training errors 1.83 against the base model's 1.88, inside the
@@ -188,6 +191,9 @@ class Fit:
     # better than the main fit, each scored with its fitted parameters' penalty: refined
     # whatever its rank (diagnose_observed)
     design_better: bool = False
+    # the training error at the fit from each of STARTS starts (with_start_scatter; the
+    # first is the search's own start): the scatter its intervals are read against
+    train_errors_over_starts: list[float] = dataclasses.field(default_factory=list)
 
     @property
     def fitted(self) -> list[str]:
@@ -254,8 +260,38 @@ def profile_factor(n_train: int) -> float:
     return 1 + 1 / max(n_train, 1)
 
 
-def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
-    """Values whose training error is within the profile bound (profile_factor).
+def interval_bound(train_errors_over_starts, train_error: float, n_train: int,
+                   search_starts: int = SEARCH_STARTS) -> float:
+    """The bound on one evaluation's training error squared that a fit's intervals read:
+    the profile bound (profile_factor) on the median over STARTS starts of the fit's
+    training error squared, plus one standard deviation of it across the starts; never
+    below the profile bound on the search's own value (train_error).
+
+    A search evaluates each point once (from rest, SEARCH_STARTS 1), and on a stick-slip
+    floor one evaluation is one draw of the model's run-to-run scatter: issue 21's draw
+    1204 (mu_s 0.425 on carpet) fitted 0.4947 at a training error of 2.18, and the same
+    point scored 2.18, 2.21, 2.10, 3.15 and 3.08 from the five starts.  The bound on the
+    best value alone, E^2 <= 2.18^2 (1 + 1/6), gave 0.491-0.513, the neighbourhood of
+    one lucky draw; against the point's own scatter it is 0.457-0.527.  That still
+    excludes the truth: the search's lowest point, 0.457, scored 2.93, just outside, and
+    the truth sits in a valley narrower than the grid's spacing (1.56-1.63 from every
+    start at 0.425, 2.46-2.89 at 0.45; scripts/bench/profile_fit.py), a miss of the
+    search no bound mends.  The median takes the level the best point scores typically
+    (not its luckiest draw), the
+    standard deviation the scatter of the one draw each other point had (assumed: one
+    sigma, as Delta chi^2 = 1 is; set before any benchmark row was judged by it), divided
+    by sqrt(search_starts) where each evaluation is a median over that many starts (the
+    scatter of a mean of that many: approximate for a median)."""
+    e2 = np.square(np.asarray(train_errors_over_starts, dtype=float))
+    scatter = float(np.std(e2, ddof=1)) / np.sqrt(search_starts) if len(e2) > 1 else 0.0
+    return max(float(train_error) ** 2 * profile_factor(n_train),
+               float(np.median(e2)) * profile_factor(n_train) + scatter)
+
+
+def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter,
+              bound: float | None = None):
+    """Values whose training error is within the profile bound (profile_factor), or
+    within `bound` on the error squared (interval_bound) where given.
 
     Each edge is where the parabola through the last point inside the bound, the first
     outside and the point beyond the first (in the prior's coordinate, log or linear)
@@ -270,7 +306,8 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter):
     inv = np.exp if log else (lambda a: a)
     c = coord(np.array([v for v, _ in ev], dtype=float))
     e2 = np.array([e for _, e in ev]) ** 2
-    bound = e2.min() * profile_factor(n_train)
+    if bound is None:
+        bound = e2.min() * profile_factor(n_train)
     ok = np.flatnonzero(e2 <= bound)
     lo_i, hi_i = ok.min(), ok.max()
 
@@ -514,6 +551,31 @@ def refine_fit(fit: Fit, held: np.ndarray) -> Fit:
                                design_better=fit.design_better)
 
 
+def with_start_scatter(fit: Fit) -> Fit:
+    """The fit with its training error from each of STARTS starts (the training commands
+    simulated again from starts 1..STARTS-1 at the fit) and every interval read against
+    interval_bound: the bound a single evaluation of the search is within, given the
+    scatter the fit's own simulations show.  A fit without its evaluations is returned
+    as it is."""
+    evaluate = fit.evaluator
+    if evaluate is None:
+        return fit
+    comparison, train = evaluate.comparison, evaluate.train
+    sims = over_starts(fit.simulated, fit.factory, evaluate.groups, evaluate.trained,
+                       evaluate.duration_s, evaluate.chain, evaluate.backend,
+                       evaluate.progress, evaluate.stored)
+    errors = [float(comparison.error(s.features, train)) for s in sims]
+    bound = interval_bound(errors, fit.train_error, len(train), evaluate.search_starts)
+    cause = cause_registry.get(fit.cause)
+    priors = {p.name: p for p in (cause.main, *cause.held)}
+    realisation = fit.realisation if fit.realisation is not None else FIT_SEED
+    intervals = {name: _interval(evaluate.profile(name, fit.parameters, realisation),
+                                 len(train), priors[name], bound)
+                 for name in fit.fitted}
+    return dataclasses.replace(fit, interval=intervals[fit.main], intervals=intervals,
+                               train_errors_over_starts=errors)
+
+
 def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
             held: np.ndarray) -> Fit:
     """The Fit at the best point evaluated: its errors, the score with one penalty per
@@ -632,7 +694,8 @@ def separated(base_held: float, best: Fit, others: list[Fit]) -> bool:
 
 def told_from_base(base_train: float, best: Fit, n_train: int) -> bool:
     """Whether the training runs tell the best fit from the base model: the base model's
-    training error lies outside the fit's profile bound (_interval's)."""
+    training error lies outside the fit's profile bound (profile_factor, on the fit's
+    own training error: not the intervals' wider interval_bound)."""
     return base_train ** 2 > best.train_error ** 2 * profile_factor(n_train)
 
 
@@ -810,8 +873,9 @@ def simulations_planned(names: list[str], observed: Observed,
     to refine, and every cause with a design) refine_parameters' passes and profile
     (twice with a mirror), each on the training commands; the held-out commands at each
     fit's end (main and refined); the pair on every command; and STARTS - 1 more starts
-    of the base model's every command and of each end's and the pair's held-out ones;
-    the search's (on the training commands) once per search start."""
+    of the base model's every command, of each end's and the pair's held-out ones and
+    of each cause's final fit's training ones (with_start_scatter); the search's (on the
+    training commands) once per search start."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
@@ -832,7 +896,7 @@ def simulations_planned(names: list[str], observed: Observed,
     ends = len(names) + len(refined)
     return (2 * n_groups + n_trained * searched * search_starts
             + (n_groups - n_trained) * ends
-            + (STARTS - 1) * (n_groups + n_held * (ends + 1)))
+            + (STARTS - 1) * (n_groups + n_held * (ends + 1) + n_trained * len(names)))
 
 
 @dataclasses.dataclass
@@ -884,6 +948,8 @@ class Diagnosis:
                          "train_error": f.train_error, "score": f.score, "removed": f.removed,
                          "parameters": f.parameters, "fitted": f.fitted,
                          "interval": {k: list(v) for k, v in f.intervals.items()},
+                         # what the intervals are read against (interval_bound)
+                         "train_errors_over_starts": f.train_errors_over_starts,
                          "realisation": f.realisation,
                          "realisation_errors": f.realisation_errors,
                          # the training error along the main parameter through the fit:
@@ -1015,6 +1081,8 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
             for i, refined in zip(chosen, pool.map(lambda i: refine_fit(fits[i], held),
                                                    chosen)):
                 fits[i] = refined
+            # every fit's intervals against its own start-to-start scatter
+            fits = list(pool.map(with_start_scatter, fits))
     fits.sort(key=lambda f: f.score)
     noise = comparison.noise_error()
     for f in fits:
