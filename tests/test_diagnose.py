@@ -33,7 +33,7 @@ from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Compari
                                             model_factory, simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
-                                     REFINE_STEPS, STARTS, _interval,
+                                     PROFILE_MOVES, REFINE_STEPS, STARTS, _interval,
                                      contenders, fit_every_parameter, interval_bound,
                                      median_error, profile_factor, refine_parameters)
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
@@ -251,7 +251,32 @@ def test_every_parameter_is_fitted_from_the_main_fit():
         assert abs(p.to_unit(best[p.name]) - p.to_unit(truth[p.name])) <= REFINE_STEPS[-1] + 1e-9, \
             (p.name, best[p.name])
     # bounded: the start, per pass 2 probes a parameter and a combined move, the profile
-    assert len(surface.seen) <= 1 + len(REFINE_STEPS) * (2 * 3 + 1) + 2 * 3
+    # and as many again per move of it
+    assert len(surface.seen) <= 1 + len(REFINE_STEPS) * (2 * 3 + 1) + 2 * 3 * (1 + PROFILE_MOVES)
+
+
+def test_the_profile_is_taken_around_the_best_point():
+    # the minimum lies 0.45 of the prior from the start in frequency: the passes (0.25,
+    # then 0.1) end 0.1 short of it and the profile's probe finds it; the profile is then
+    # taken again around it, so the fit has a probe either side in every parameter
+    mount = causes.get("sensor_mount")
+    frequency, damping = mount.main, mount.held[0]
+    start = mount.parameters(float(frequency.from_unit(0.3)))
+    target = {frequency.name: 0.75, damping.name: damping.to_unit(start[damping.name])}
+
+    def error(values):
+        return 1.0 + 40 * sum((p.to_unit(values[p.name]) - target[p.name]) ** 2
+                              for p in (frequency, damping))
+
+    surface = _Surface(error)
+    refine_parameters(surface, [frequency, damping], start, 0)
+    best = min(surface.seen, key=error)
+    assert frequency.to_unit(best[frequency.name]) == pytest.approx(0.75)
+    for p in (frequency, damping):
+        others = {q: v for q, v in best.items() if q != p.name}
+        line = [v[p.name] for v in surface.seen
+                if {q: x for q, x in v.items() if q != p.name} == others]
+        assert min(line) < best[p.name] < max(line), p.name
 
 
 def _unit_distance(values, centre, cause: str = "mast_compliance") -> float:

@@ -68,6 +68,15 @@ REFINE_STEPS_PLANNED = 8
 # pass then a fine one (assumed: a quarter of the prior finds the basin a grid of 5 on
 # the main parameter would, a tenth resolves it to about the recovery factors' width)
 REFINE_STEPS = (0.25, 0.1)
+# the profile (the last pass's probes, REFINE_STEPS[-1] either side of every parameter) is
+# taken again around a probe that fits better than the point it was taken around, at most
+# this many times: the fit is the best point evaluated, and only a profile around it
+# bounds its intervals.  Before it the best point could be such a probe, with no probe
+# of its own: its intervals ran to the prior's bounds for want of a probe, not for want
+# of data (issue 21's draw 1205, fitted again: the floor's RMS 0.02-2 mm, one point on
+# its profile; draw 1207's row shows all three frame parameters so).  Assumed: 3 moves
+# (each 2 x parameters points) bound the cost; past them an interval may still be open
+PROFILE_MOVES = 3
 # the causes whose every parameter is fitted: the best REFINE_CONTENDERS by their
 # main-parameter fit's score (assumed: the verdict weighs the best against the
 # runner-up; refining the rest would cost a fit each and could not change it unless a
@@ -627,9 +636,10 @@ def refine_parameters(evaluate: _Evaluations, parameters, start: dict[str, float
     coordinates: each pass probes every parameter REFINE_STEPS[i] either side (one
     batch), moves to the best probe and tries the sum of every improving move; a last
     pass at the smallest step around the final point gives each parameter's profile
-    (its interval).  A derivative-free search: the features of a stick-slip simulation
-    are not smooth enough in a parameter for finite differences at the small steps
-    a Gauss-Newton step needs (PLATFORM-NOTES, sysid)."""
+    (its interval), taken again around any probe of it that fits better
+    (PROFILE_MOVES).  A derivative-free search: the features of a stick-slip
+    simulation are not smooth enough in a parameter for finite differences at the
+    small steps a Gauss-Newton step needs (PLATFORM-NOTES, sysid)."""
     x = {p.name: p.to_unit(start[p.name]) for p in parameters}
     x0, by_name = dict(x), {p.name: p for p in parameters}
 
@@ -659,10 +669,16 @@ def refine_parameters(evaluate: _Evaluations, parameters, start: dict[str, float
             combined = x | {n: u for n, (u, _) in improving.items()}
             candidates.append((combined, evaluate([point(combined)])[0]))
         x, current = min(candidates, key=lambda c: c[1])
-    # the profile through the final point at the smallest step (most of it is done)
+    # the profile through the final point at the smallest step (most of it is done), taken
+    # again around a probe that fits better (PROFILE_MOVES)
     step = REFINE_STEPS[-1]
-    evaluate([point(x | {name: float(np.clip(x[name] + sign * step, 0.0, 1.0))})
-              for name in x for sign in (-1.0, 1.0)])
+    for _ in range(1 + PROFILE_MOVES):
+        probes = [x | {name: u} for name in x for sign in (-1.0, 1.0)
+                  if (u := float(np.clip(x[name] + sign * step, 0.0, 1.0))) != x[name]]
+        errors = evaluate([point(u) for u in probes])
+        if not probes or min(errors) >= current:
+            break
+        x, current = probes[int(np.argmin(errors))], float(min(errors))
 
 
 def gain(base_held: float, extended_held: float, noise: float) -> float:
@@ -878,7 +894,7 @@ def simulations_planned(names: list[str], observed: Observed,
     training commands) once per search start."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
-        search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n
+        search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n * (1 + PROFILE_MOVES)
         return 0 if n == 1 else search + (1 + search if cause.mirror else 0)
 
     candidates = [cause_registry.get(name) for name in names]
