@@ -120,15 +120,16 @@ MIN_GAIN = 0.5  # a named cause removes at least half of the held-out discrepanc
 # draws 1178-1191 it moved no verdict)
 SEPARATION = 0.25
 # ... and the training runs tell it from the base model: the base model's training error
-# (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n),
+# (start 0, as a fit's) is outside the best fit's profile bound, E^2 > E_fit^2 (1 + 1/n)
 # (profile_factor): the base model, the cause at its null, is not among the parameter
 # values the training runs allow.  The intervals read a wider bound, widened by the fit's
 # start-to-start scatter (interval_bound, added after this rule); the rule keeps the
-# bound it was judged with on the benchmark, both sides of it read from one start.  Without it a cause fitted next to
-# its null value can be named on the held-out runs' scatter alone (issue 21's draw 1106:
-# an unbalanced fan, base error 2.13, named slip_lambda_max at 0.087 for the base model's
-# 0.1, 51 % removed; training errors 1.83 against the base model's 1.88, inside the
-# bound 1.98; added after seeing it, judged on the benchmark's draws after it)
+# bound it was judged with on the benchmark, both sides of it read from one start.
+# Without it a cause fitted next to its null value can be named on the held-out runs'
+# scatter alone (issue 21's draw 1106: an unbalanced fan, base error 2.13, named
+# slip_lambda_max at 0.087 for the base model's 0.1, 51 % removed; training errors 1.83
+# against the base model's 1.88, inside the bound 1.98; added after seeing it, judged on
+# the benchmark's draws after it)
 # ... and the training runs rank it first too: no other fit's training score (its training
 # error squared plus the same penalty per fitted parameter) is below the named one's.  The
 # fits are chosen on the training runs and judged on the held-out ones; when the two halves
@@ -286,11 +287,11 @@ def interval_bound(train_errors_over_starts, train_error: float, n_train: int,
     the truth sits in a valley narrower than the grid's spacing (1.56-1.63 from every
     start at 0.425, 2.46-2.89 at 0.45; scripts/bench/profile_fit.py), a miss of the
     search no bound mends.  The median takes the level the best point scores typically
-    (not its luckiest draw), the
-    standard deviation the scatter of the one draw each other point had (assumed: one
-    sigma, as Delta chi^2 = 1 is; set before any benchmark row was judged by it), divided
-    by sqrt(search_starts) where each evaluation is a median over that many starts (the
-    scatter of a mean of that many: approximate for a median)."""
+    (not its luckiest draw), the standard deviation the scatter of the one draw each
+    other point had (assumed: one sigma, as Delta chi^2 = 1 is; set before any benchmark
+    row was judged by it), divided by sqrt(search_starts) where each evaluation is a
+    median over that many starts (the scatter of a mean of that many: approximate for a
+    median)."""
     e2 = np.square(np.asarray(train_errors_over_starts, dtype=float))
     scatter = float(np.std(e2, ddof=1)) / np.sqrt(search_starts) if len(e2) > 1 else 0.0
     return max(float(train_error) ** 2 * profile_factor(n_train),
