@@ -94,9 +94,13 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
             {"mu_static": 0.5}, ["mu_static"]),
         row("sensor_mount", {"frequency_hz": 20.0, "damping_ratio": 0.1}, "sensor_mount",
             {"frequency_hz": 21.0, "damping_ratio": 0.05}, ["frequency_hz"]),
+        # an interval open below (mu_s' prior starts at 0.4): none bounded on both sides
+        row("friction_levels", {"mu_static": 0.5}, "friction_levels", {"mu_static": 0.45},
+            ["mu_static"], {"mu_static": [0.4, 0.6]}),
         {"effect": None, "truth": {}, "ranking": []}]
     found = {(c["cause"], c["parameter"]): c for c in bench_diagnose_generalisation.recovery(rows)}
-    assert set(found) == {("slip_lambda_max", "lambda_max"), ("sensor_mount", "frequency_hz")}
+    assert set(found) == {("slip_lambda_max", "lambda_max"), ("sensor_mount", "frequency_hz"),
+                          ("friction_levels", "mu_static")}
     slip = found["slip_lambda_max", "lambda_max"]
     assert (slip["fits"], slip["above"]) == (9, 7)
     assert slip["median"] == pytest.approx(1.2)
@@ -108,3 +112,4 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
     shown = bench_diagnose_generalisation.recovery_table(rows)
     assert "| slip_lambda_max | lambda_max | 9 | 7 | 1.20 |" in shown
     assert "| 0.070 | 3 of 5 | 2 of 4 |" in shown and "| 1.000 | - | - |" in shown
+    assert "| 1 of 1 | - |" in shown  # friction_levels: held by its open interval

@@ -278,10 +278,10 @@ def recovery(rows: list[dict]) -> list[dict]:
     scatter (fit.interval_bound: the rows that kept the training errors over the starts,
     from draw 1209 on; the intervals of 1201-1208 read a narrower bound and are not
     counted) and how many of them hold the hidden value (edges included); bounded,
-    bounded_inside: the same for the
-    intervals bounded on both sides (an open side ends at the prior's bound: no value the
-    fit probed there left the profile bound, so the data do not bound it, and such an
-    interval holds the hidden value by spanning the prior, not by locating it)."""
+    bounded_inside: the same for the intervals bounded on both sides (an open side ends
+    at the prior's bound: no value the fit probed there left the profile bound, so the
+    data do not bound it, and such an interval holds the hidden value by spanning the
+    prior, not by locating it)."""
     ratios: dict[tuple[str, str], list[float]] = {}
     inside: dict[tuple[str, str], list[tuple[bool, bool]]] = {}  # (holds it, bounded)
     for r in rows:
@@ -293,7 +293,7 @@ def recovery(rows: list[dict]) -> list[dict]:
             if name in fit.get("fitted", []) and hidden:
                 ratios.setdefault((r["effect"], name), []).append(
                     fit["parameters"][name] / hidden)
-                if name in fit.get("interval", {}) and "train_errors_over_starts" in fit:
+                if name in fit.get("interval", {}) and fit.get("train_errors_over_starts"):
                     low, high = fit["interval"][name]
                     prior = _prior(r["effect"], name)
                     bounded = not (np.isclose(low, prior.low) or np.isclose(high, prior.high))
@@ -304,7 +304,7 @@ def recovery(rows: list[dict]) -> list[dict]:
         v = np.array(values)
         above, below = int(np.sum(v > 1)), int(np.sum(v < 1))
         holds = inside.get((cause, name), [])
-        bounded = [held for held, both in holds if both]
+        bounded = [holds_it for holds_it, both in holds if both]
         out.append({"cause": cause, "parameter": name, "fits": len(v), "above": above,
                     "median": float(np.median(v)),
                     "quartiles": tuple(float(q) for q in np.quantile(v, [0.25, 0.75])),
@@ -330,7 +330,7 @@ def recovery_table(rows: list[dict]) -> str:
                    f"{c['median']:.2f}", f"{c['quartiles'][0]:.2f}-{c['quartiles'][1]:.2f}",
                    f"{c['p']:.3f}",
                    f"{c['inside']} of {c['with_interval']}" if c["with_interval"] else "-",
-                   f"{c['bounded_inside']} of {c['bounded']}" if c["with_interval"] else "-"]
+                   f"{c['bounded_inside']} of {c['bounded']}" if c["bounded"] else "-"]
                   for c in recovery(rows)]).rstrip()
 
 
