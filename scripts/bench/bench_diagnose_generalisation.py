@@ -295,7 +295,7 @@ def recovery(rows: list[dict]) -> list[dict]:
                     fit["parameters"][name] / hidden)
                 if name in fit.get("interval", {}) and fit.get("train_errors_over_starts"):
                     low, high = fit["interval"][name]
-                    prior = _prior(r["effect"], name)
+                    prior = causes.get(r["effect"]).priors[name]
                     bounded = not (np.isclose(low, prior.low) or np.isclose(high, prior.high))
                     inside.setdefault((r["effect"], name), []).append(
                         (low <= hidden <= high, bounded))
@@ -313,12 +313,6 @@ def recovery(rows: list[dict]) -> list[dict]:
                     "with_interval": len(holds), "inside": int(sum(h for h, _ in holds)),
                     "bounded": len(bounded), "bounded_inside": int(sum(bounded))})
     return out
-
-
-def _prior(cause: str, name: str):
-    """The prior (causes.Parameter) of a cause's parameter."""
-    c = causes.get(cause)
-    return next(p for p in (c.main, *c.held) if p.name == name)
 
 
 def recovery_table(rows: list[dict]) -> str:

@@ -538,8 +538,8 @@ def _score(error: float, n_params: float, n_train: int) -> float:
 
 def _clipped(cause, values: dict[str, float]) -> dict[str, float]:
     """A cause's parameter set with each parameter clipped to its prior."""
-    return {p.name: float(np.clip(values[p.name], p.low, p.high))
-            for p in (cause.main, *cause.held)}
+    return {name: float(np.clip(values[name], p.low, p.high))
+            for name, p in cause.priors.items()}
 
 
 def _design_points(cause) -> list[dict[str, float]]:
@@ -576,8 +576,7 @@ def with_start_scatter(fit: Fit) -> Fit:
                        evaluate.progress, evaluate.stored)
     errors = [float(comparison.error(s.features, train)) for s in sims]
     bound = interval_bound(errors, fit.train_error, len(train), evaluate.search_starts)
-    cause = cause_registry.get(fit.cause)
-    priors = {p.name: p for p in (cause.main, *cause.held)}
+    priors = cause_registry.get(fit.cause).priors
     realisation = fit.realisation if fit.realisation is not None else FIT_SEED
     intervals = {name: _interval(evaluate.profile(name, fit.parameters, realisation),
                                  len(train), priors[name], bound)

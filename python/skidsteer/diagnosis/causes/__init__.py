@@ -94,9 +94,14 @@ class Cause:
     # the best of them and the main fit (diagnosis.fit.fit_every_parameter)
     design: Callable[[], list[dict[str, float]]] | None = None
 
+    @property
+    def priors(self) -> dict[str, Parameter]:
+        """Every parameter's prior by name, the main one first."""
+        return {p.name: p for p in (self.main, *self.held)}
+
     def parameters(self, main_value: float | None = None,
                    overrides: Mapping[str, float] | None = None) -> dict[str, float]:
-        values = {p.name: p.value for p in (self.main, *self.held)}
+        values = {name: p.value for name, p in self.priors.items()}
         if main_value is not None:
             values[self.main.name] = float(main_value)
         for key, value in (overrides or {}).items():
