@@ -35,6 +35,7 @@ from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
                                      PROFILE_MOVES, REFINE_STEPS, STARTS, _interval,
                                      contenders, fit_every_parameter, interval_bound,
+                                     unprobed_sides,
                                      median_error, profile_factor, refine_parameters)
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
 from skidsteer.features.extract import N_POWER
@@ -413,6 +414,15 @@ def test_an_interval_open_on_one_side_reaches_the_prior():
     # the error rises to the right only: the left side is not bounded by the data
     lo, hi = _interval([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], 6, p)
     assert lo == p.low and 1.0 < hi < 2.0
+    # nothing was evaluated below 0.5: open for want of a probe, which the fit records
+    assert unprobed_sides([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], p, (lo, hi)) == ["below"]
+    # probed down to the prior's bound and still inside: the data leave it open
+    at_bound = [(p.low, 1.0), (0.5, 1.0), (1.0, 1.0), (2.0, 3.0)]
+    assert _interval(at_bound, 6, p)[0] == p.low
+    assert unprobed_sides(at_bound, p, _interval(at_bound, 6, p)) == []
+    # and an interval open above for want of a probe (nothing evaluated past 2)
+    rising_left = [(0.5, 3.0), (1.0, 1.0), (2.0, 1.0)]
+    assert unprobed_sides(rising_left, p, _interval(rising_left, 6, p)) == ["above"]
 
 
 def test_an_interval_follows_a_quadratic_profile_between_the_probes():
@@ -539,11 +549,13 @@ def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
         simulate_groups([(factory, [group])], 8.0, starts=[0, 1])
 
 
-def test_the_search_reads_the_median_over_its_starts(tmp_path):
+def test_the_search_reads_the_median_over_its_starts(tmp_path, monkeypatch):
     # diagnose --search-starts N: a fit's training error is the median over starts
     # 0..N-1 (as the held-out error is over STARTS), the simulation it keeps is start 0's;
     # N = 1 (the default) is the start from rest alone, the search as it always was
     from skidsteer.data.dataset import Group
+    from skidsteer.diagnosis import comparison as comparison_module
+    from skidsteer.diagnosis import fit as fit_module
     from skidsteer.diagnosis.comparison import simulate_groups
     from skidsteer.diagnosis.fit import FIT_SEED, _Evaluations
     from skidsteer.simulation.backends import LocalBackend
@@ -570,6 +582,20 @@ def test_the_search_reads_the_median_over_its_starts(tmp_path):
         kept = evaluate.best(FIT_SEED)[2]
         assert np.array_equal(kept.features, starts[0].features, equal_nan=True)
     assert cache.stores == 3 * len(groups)  # start 0 simulated once, reused by N = 3
+    # the fit's scatter (with_start_scatter) reads the search's 3 starts and simulates
+    # only the other STARTS - 3, without the cache too
+    evaluate.stored = None
+    simulated = []
+    monkeypatch.setattr(fit_module, "simulate_groups",
+                        lambda jobs, *a, **k: simulated.extend(k["starts"])
+                        or comparison_module.simulate_groups(jobs, *a, **k))
+    fit = fit_module.Fit("slip_lambda_max", params, "lambda_max", (0.0, 1.0),
+                         evaluate.done[next(iter(evaluate.done))][0], 1.0, 1.0, kept, [],
+                         factory=factory, evaluator=evaluate)
+    scattered = fit_module.with_start_scatter(fit)
+    assert sorted(simulated) == list(range(3, STARTS))
+    assert scattered.train_errors_over_starts[:3] == pytest.approx(per_start)
+    assert len(scattered.train_errors_over_starts) == STARTS
 
 
 def test_the_main_parameter_search_runs_to_its_tolerance(monkeypatch):
@@ -947,6 +973,8 @@ def test_diagnose_writes_its_outputs(written):
     assert (low, high) == pytest.approx(_interval(profile, n_train, prior, bound))
     single = _interval(profile, n_train, prior)
     assert low <= single[0] <= single[1] <= high
+    # and it records a side open for want of a probe as the saved profile shows it
+    assert named["unprobed"].get("lambda_max", []) == unprobed_sides(profile, prior, (low, high))
 
 
 def _comparable(diagnosis_json: dict) -> dict:

@@ -176,7 +176,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # against (from draw 1209 on)
             "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
                                            "fitted", "parameters", "interval",
-                                           "train_errors_over_starts")}
+                                           "train_errors_over_starts", "unprobed")}
                         for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],
                                result["baseline_error_all_runs"]),

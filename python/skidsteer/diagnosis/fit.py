@@ -76,7 +76,12 @@ REFINE_STEPS = (0.25, 0.1)
 # of data (issue 21's draw 1205, fitted again: the floor's RMS 0.02-2 mm, one point on
 # its profile; draw 1207's row shows all three frame parameters so).  Assumed: 3 moves
 # (each 2 x parameters points) bound the cost; past them an interval may still be open
+# for want of a probe, and the fit says so (Fit.unprobed)
 PROFILE_MOVES = 3
+# a value this close to a prior's bound (in prior coordinates) is at it (unprobed_sides):
+# refine_parameters clips its probes to the bounds exactly, so any margin above rounding
+# error does
+UNIT_EDGE = 1e-9
 # the causes whose every parameter is fitted: the best REFINE_CONTENDERS by their
 # main-parameter fit's score (assumed: the verdict weighs the best against the
 # runner-up; refining the rest would cost a fit each and could not change it unless a
@@ -204,6 +209,9 @@ class Fit:
     # the training error at the fit from each of STARTS starts (with_start_scatter; the
     # first is the search's own start): the scatter its intervals are read against
     train_errors_over_starts: list[float] = dataclasses.field(default_factory=list)
+    # per fitted parameter, the sides ("below", "above") where its interval runs to the
+    # prior's bound for want of a probe (unprobed_sides), not because the data leave it open
+    unprobed: dict[str, list[str]] = dataclasses.field(default_factory=dict)
 
     @property
     def fitted(self) -> list[str]:
@@ -309,7 +317,8 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter,
     points a tenth of the prior apart puts the edge too close where the error rises
     steeply.  Linear where no third point or no crossing on that stretch.  A side where no
     evaluated value crosses the bound is open: it ends at the prior's bound (the data
-    do not bound it there)."""
+    do not bound it there, or no value beyond was evaluated: unprobed_sides tells
+    which)."""
     log = parameter.log
     ev = sorted(evaluations)
     coord = np.log if log else (lambda a: a)
@@ -334,6 +343,23 @@ def _interval(evaluations: list[tuple[float, float]], n_train: int, parameter,
         return float(inv(crossing))
 
     return edge(lo_i, lo_i - 1, lo_i + 1), edge(hi_i, hi_i + 1, hi_i - 1)
+
+
+def unprobed_sides(evaluations: list[tuple[float, float]], parameter,
+                   interval: tuple[float, float]) -> list[str]:
+    """The sides of `interval` ("below", "above") that run to the prior's bound for want
+    of a probe: _interval opens a side when no evaluated value beyond its last value
+    inside the bound crosses it, and this is the case where the outermost value
+    evaluated on that side lies inside the prior (the search stopped short of it),
+    not at its bound (the data do not bound it there).  refine_parameters' profile moves
+    can end on such a point (PROFILE_MOVES)."""
+    units = [parameter.to_unit(v) for v, _ in evaluations]
+    sides = []
+    if interval[0] <= parameter.low and min(units) > UNIT_EDGE:
+        sides.append("below")
+    if interval[1] >= parameter.high and max(units) < 1 - UNIT_EDGE:
+        sides.append("above")
+    return sides
 
 
 def _parabola_roots(x: np.ndarray, y: np.ndarray) -> list[float]:
@@ -386,6 +412,8 @@ class _Evaluations:
         self.backend, self.progress, self.stored = backend, progress, stored
         self.search_starts = search_starts
         self.done: dict[tuple, tuple[float, Simulated]] = {}
+        # a point's training error from each of the search's starts (0..search_starts-1)
+        self.start_errors: dict[tuple, list[float]] = {}
         self.trained = _groups_of(comparison, train)
         self.completed: set[tuple] = set()  # the points simulated on every command
         self.held_errors: dict[tuple, float] = {}  # a point's held-out error (held_out_error)
@@ -411,7 +439,9 @@ class _Evaluations:
         if todo:
             for key, parts in zip(todo, self._simulate(todo, self.trained, self.search_starts)):
                 sims = [_placed(part, self.trained, len(self.groups)) for part in parts]
-                self.done[key] = (median_error(self.comparison, sims, self.train), sims[0])
+                self.start_errors[key] = [float(self.comparison.error(s.features, self.train))
+                                          for s in sims]
+                self.done[key] = (float(np.median(self.start_errors[key])), sims[0])
         return [self.done[k][0] for k in keys]
 
     def complete(self, params: dict[str, float], realisation: int) -> Simulated:
@@ -515,13 +545,13 @@ def _groups_of(comparison: Comparison, runs: np.ndarray) -> list[int]:
 
 
 def over_starts(sim: Simulated, factory, groups: list[Group], which: list[int],
-                duration_s: float, chain: SensorChain, backend, progress, cache
-                ) -> list[Simulated]:
-    """sim (every group from start 0) and, for each start 1..STARTS-1, sim with the
+                duration_s: float, chain: SensorChain, backend, progress, cache,
+                first: int = 1) -> list[Simulated]:
+    """sim (every group from start 0) and, for each start first..STARTS-1, sim with the
     groups `which` simulated again from that start (comparison.start_state)."""
-    jobs = [(factory, [groups[i] for i in which])] * (STARTS - 1)
+    jobs = [(factory, [groups[i] for i in which])] * (STARTS - first)
     parts = simulate_groups(jobs, duration_s, chain, backend=backend, progress=progress,
-                            cache=cache, signals=False, starts=range(1, STARTS))
+                            cache=cache, signals=False, starts=range(first, STARTS))
     return [sim, *(_placed(part, which, sim) for part in parts)]
 
 
@@ -571,18 +601,24 @@ def with_start_scatter(fit: Fit) -> Fit:
     if evaluate is None:
         return fit
     comparison, train = evaluate.comparison, evaluate.train
+    realisation = fit.realisation if fit.realisation is not None else FIT_SEED
+    # the search's own starts are read, not simulated again (--search-starts above 1)
+    known = evaluate.start_errors.get((_parameter_key(fit.parameters), realisation), [])[:STARTS]
+    first = max(len(known), 1)
     sims = over_starts(fit.simulated, fit.factory, evaluate.groups, evaluate.trained,
                        evaluate.duration_s, evaluate.chain, evaluate.backend,
-                       evaluate.progress, evaluate.stored)
-    errors = [float(comparison.error(s.features, train)) for s in sims]
+                       evaluate.progress, evaluate.stored, first=first)
+    errors = (known or [float(comparison.error(sims[0].features, train))]) + [
+        float(comparison.error(s.features, train)) for s in sims[1:]]
     bound = interval_bound(errors, fit.train_error, len(train), evaluate.search_starts)
     priors = cause_registry.get(fit.cause).priors
-    realisation = fit.realisation if fit.realisation is not None else FIT_SEED
-    intervals = {name: _interval(evaluate.profile(name, fit.parameters, realisation),
-                                 len(train), priors[name], bound)
+    profiles = {name: evaluate.profile(name, fit.parameters, realisation)
+                for name in fit.fitted}
+    intervals = {name: _interval(profiles[name], len(train), priors[name], bound)
                  for name in fit.fitted}
     return dataclasses.replace(fit, interval=intervals[fit.main], intervals=intervals,
-                               train_errors_over_starts=errors)
+                               train_errors_over_starts=errors,
+                               unprobed=_unprobed(profiles, priors, intervals))
 
 
 def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
@@ -593,14 +629,21 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     params, train_error, _ = evaluate.best(realisation)
     sim = evaluate.complete(params, realisation)
     held_error = evaluate.held_out_error(params, realisation, held)
-    intervals = {p.name: _interval(evaluate.profile(p.name, params, realisation), len(train), p)
-                 for p in fitted}
+    profiles = {p.name: evaluate.profile(p.name, params, realisation) for p in fitted}
+    intervals = {p.name: _interval(profiles[p.name], len(train), p) for p in fitted}
     n_params = n_parameters(cause.name, len(fitted))
     return Fit(cause.name, params, cause.main.name, intervals[cause.main.name], train_error,
                held_error, _score(held_error, n_params, len(train)), sim,
-               evaluate.profile(cause.main.name, params, realisation),
-               realisation if cause.random_realisation else None,
-               evaluate.factory(params, realisation), intervals, evaluator=evaluate)
+               profiles[cause.main.name], realisation if cause.random_realisation else None,
+               evaluate.factory(params, realisation), intervals, evaluator=evaluate,
+               unprobed=_unprobed(profiles, {p.name: p for p in fitted}, intervals))
+
+
+def _unprobed(profiles: dict, priors: dict, intervals: dict) -> dict[str, list[str]]:
+    """unprobed_sides of every interval that has one, by parameter name."""
+    sides = {name: unprobed_sides(profiles[name], priors[name], interval)
+             for name, interval in intervals.items()}
+    return {name: s for name, s in sides.items() if s}
 
 
 def fit_every_parameter(evaluate, cause, start: dict[str, float], realisation: int) -> None:
@@ -882,25 +925,30 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
 
 def simulations_planned(names: list[str], observed: Observed,
                         search_starts: int = SEARCH_STARTS) -> int:
-    """At most how many command simulations diagnosing `observed` with these candidates
-    takes (a progress bar's total): the base model on every command; per cause the grid,
-    the Brent steps, for a random geometry the other realisations and a second grid, for
-    a cause with a design its points; for the contenders (the REFINE_CONTENDERS costliest
-    to refine, and every cause with a design) refine_parameters' passes and profile
-    (twice with a mirror), each on the training commands; the held-out commands at each
+    """How many command simulations diagnosing `observed` with these candidates is planned
+    to take (a progress bar's total; a plan, not a bound: Brent is planned
+    REFINE_STEPS_PLANNED steps and may take up to REFINE_MAX_STEPS, and refinements and
+    profile moves are planned in full where a search often stops early): the base model
+    on every command; per cause the grid, the Brent steps, for a random geometry the
+    other realisations and a second grid, for a cause with a design its points; for the
+    causes contenders() can refine (every cause with a design, and the REFINE_CONTENDERS
+    costliest to refine of the others) refine_parameters' passes and profile (twice with
+    a mirror), each on the training commands; the held-out commands at each
     fit's end (main and refined); the pair on every command; and STARTS - 1 more starts
-    of the base model's every command, of each end's and the pair's held-out ones and
-    of each cause's final fit's training ones (with_start_scatter); the search's (on the
-    training commands) once per search start."""
+    of the base model's every command and of each end's and the pair's held-out ones,
+    and of each cause's final fit's training ones those the search did not run
+    (with_start_scatter); the search's (on the training commands) once per search
+    start."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n * (1 + PROFILE_MOVES)
         return 0 if n == 1 else search + (1 + search if cause.mirror else 0)
 
     candidates = [cause_registry.get(name) for name in names]
-    by_cost = sorted(candidates, key=refining, reverse=True)
-    refined = {c.name for c in by_cost[:REFINE_CONTENDERS]} | {
-        c.name for c in candidates if c.design is not None}
+    designed = {c.name for c in candidates if c.design is not None}
+    others = sorted((c for c in candidates if c.name not in designed), key=refining,
+                    reverse=True)
+    refined = designed | {c.name for c in others[:REFINE_CONTENDERS]}
     searched = sum(GRID_POINTS + REFINE_STEPS_PLANNED
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
@@ -912,7 +960,8 @@ def simulations_planned(names: list[str], observed: Observed,
     ends = len(names) + len(refined)
     return (2 * n_groups + n_trained * searched * search_starts
             + (n_groups - n_trained) * ends
-            + (STARTS - 1) * (n_groups + n_held * (ends + 1) + n_trained * len(names)))
+            + (STARTS - 1) * (n_groups + n_held * (ends + 1))
+            + max(STARTS - search_starts, 0) * n_trained * len(names))
 
 
 @dataclasses.dataclass
@@ -966,6 +1015,8 @@ class Diagnosis:
                          "interval": {k: list(v) for k, v in f.intervals.items()},
                          # what the intervals are read against (interval_bound)
                          "train_errors_over_starts": f.train_errors_over_starts,
+                         # interval sides open for want of a probe (unprobed_sides)
+                         "unprobed": f.unprobed,
                          "realisation": f.realisation,
                          "realisation_errors": f.realisation_errors,
                          # the training error along the main parameter through the fit:
