@@ -63,7 +63,7 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
     def line(label: str, rows: list[dict], which: list[int]) -> list[str]:
         rated = {k: generalisation.right_of(v) for k, v in generalisation.groups(rows).items()}
         truth = ceiling.counts([truths[i] for i in which], [verdicts[i] for i in which])
-        wrong = sum(generalisation._outcome(r) == "wrong" for r in rows)
+        wrong = sum(generalisation.wrong_name(r) for r in rows)
         return [label, str(len(rows)),
                 f"{rate(*rated['effects'])}; {rate(*rated['judged'])} where the held-out "
                 "command shows it", str(wrong),

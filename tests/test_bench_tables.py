@@ -4,6 +4,7 @@ and not tabulated again fails here, as would a report that no longer reads the r
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 
@@ -113,3 +114,24 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
     assert "| slip_lambda_max | lambda_max | 9 | 7 | 1.20 |" in shown
     assert "| 0.070 | 3 of 5 | 2 of 4 |" in shown and "| 1.000 | - | - |" in shown
     assert "| 1 of 1 | - |" in shown  # friction_levels: held by its open interval
+
+
+def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
+    """The README's "wrong names" counts causes named wrong; a null said "unexplained"
+    (issue 21's draw 1211: the base model at 2.003 against the 2.0 limit) is a wrong
+    outcome that names nothing, counted in the nulls' column instead."""
+    with (DOCS / "diagnose-generalisation.jsonl").open() as f:
+        rows = {r["case"]: r for r in map(json.loads, f)}
+    right = next(r for r in rows.values() if bench_diagnose_generalisation._outcome(r) == "right"
+                 and r["effect"] in bench_diagnose_generalisation.causes.CAUSES
+                 and "ranking" in r and "base_train" in r)
+    assert not bench_diagnose_generalisation.wrong_name(right)
+    # the same row with its hidden effect swapped for another cause: named, and wrong
+    other = next(c for c in sorted(bench_diagnose_generalisation.causes.CAUSES)
+                 if c != right["effect"])
+    assert bench_diagnose_generalisation.wrong_name({**right, "effect": other})
+    # a null the verdict does not call no-discrepancy: wrong, but no name
+    null = {**right, "effect": None, "baseline_error": 2.003, "held_out": [1.42, 1.48],
+            "verdict": "unexplained", "cause": None, "ranking": []}
+    assert bench_diagnose_generalisation._outcome(null) == "wrong"
+    assert not bench_diagnose_generalisation.wrong_name(null)

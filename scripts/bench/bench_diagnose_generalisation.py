@@ -129,6 +129,13 @@ def _verdict(row: dict) -> tuple[str, str | None]:
     return result, named.cause if named is not None else None
 
 
+def wrong_name(row: dict) -> bool:
+    """Whether the row names a cause (under the rules as they are now) that is not its
+    hidden one: a "wrong" outcome that names nothing (a null said unexplained, a fan
+    said no-discrepancy) is not a wrong name; the nulls' and fans' rates count those."""
+    return _outcome(row) == "wrong" and _verdict(row)[1] is not None
+
+
 def _outcome(row: dict) -> str:
     """A row's outcome under the rules as they are now (rows keep the one they had)."""
     return outcome(row["effect"], *_verdict(row), row["baseline_error"])

@@ -1,0 +1,88 @@
+"""The base model's start-to-start spread of its steady band powers, per floor, swivel
+rate and time step: where a step's simulated starts split into regimes.
+
+A diagnosis scores features against the trials' spread and reads the model as the
+median over 5 simulated starts (diagnosis.comparison.start_state); where the model's
+own starts split into regimes, a dataset whose trials all fell in one regime scores a
+discrepancy the model itself makes (issue 21's null draw 1211: 30 deg/s on carpet).
+For each (step, floor, rate) the extended build swivels 20 s from N starts; per steady
+band above the sensor's noise floor (median power above 1e-8 (m/s^2)^2, a quiet run's
+level being ~1e-7.5) the standard deviation of log10 power across the starts; printed
+as JSON lines: the largest and the median over bands, and the worst band's values.
+
+    python scripts/bench/regime_map.py --steps 1e-4 5e-5 --starts 6
+
+Tile is concrete's friction set (plugin/tire/README.md, floors), so it is not
+repeated.  Costs steps x 2 floors x rates x starts simulations of 20 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+
+import numpy as np
+
+from skidsteer.data.dataset import Group
+from skidsteer.diagnosis.comparison import model_factory, simulate_groups
+from skidsteer.features.extract import comparison_feature_names
+from skidsteer.robot import Setup
+from skidsteer.simulation.backends import LocalBackend
+
+NOISE_FLOOR_LOG10 = -8.0  # a band below it reads the sensor's noise, not the robot
+
+
+def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: int,
+           band: str | None = None) -> dict:
+    names = list(comparison_feature_names())
+    steady = [k for k, n in enumerate(names) if n.startswith("steady_") and "wheel" not in n]
+    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
+    sims = simulate_groups([(model_factory(timestep=step_s), [group])] * starts, 20.0,
+                           backend=LocalBackend(threads), starts=list(range(starts)),
+                           signals=False)
+    power = np.array([s.features[0][steady] for s in sims])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_power = np.log10(np.where(power > 0, power, np.nan))
+    with warnings.catch_warnings():  # bands with no power at all: NaN, left out
+        warnings.simplefilter("ignore", RuntimeWarning)
+        log_power[:, ~(np.nanmedian(log_power, axis=0) > NOISE_FLOOR_LOG10)] = np.nan
+        sd = np.nanstd(log_power, axis=0, ddof=1)
+    worst = int(np.nanargmax(sd))
+    row = {"step_s": step_s, "floor": floor, "omega_deg_s": omega_deg_s, "starts": starts,
+           "bands": int(np.sum(np.isfinite(sd))), "max_sd": float(sd[worst]),
+           "median_sd": float(np.nanmedian(sd)), "worst": names[steady[worst]],
+           "worst_values": [round(float(v), 2) for v in log_power[:, worst]]}
+    if band is not None:  # one band's values from every start, whatever its level
+        with np.errstate(divide="ignore"):
+            row[band] = [round(float(v), 2) for v in np.log10(power[:, steady.index(
+                names.index(band))])]
+    return row
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=float, nargs="+", default=[1e-4, 5e-5])
+    ap.add_argument("--floors", nargs="+", default=["concrete", "carpet"])
+    ap.add_argument("--rates", type=float, nargs="+", default=[10, 20, 30, 40, 50, 60])
+    ap.add_argument("--starts", type=int, default=6)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--band", help="also print this steady band's log10 power from every "
+                    "start (a feature name, e.g. steady_ay_9-12.5Hz)")
+    args = ap.parse_args(argv)
+    if args.band is not None:
+        names = list(comparison_feature_names())
+        if args.band not in names or not args.band.startswith("steady_") or "wheel" in args.band:
+            ap.error(f"--band {args.band!r} is not a steady band: use one of "
+                     f"{[n for n in names if n.startswith('steady_') and 'wheel' not in n][:4]}...")
+    for step_s in args.steps:
+        for floor in args.floors:
+            for omega in args.rates:
+                print(json.dumps(spread(step_s, floor, float(omega), args.starts, args.threads,
+                                        args.band)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
