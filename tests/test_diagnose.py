@@ -416,13 +416,21 @@ def test_an_interval_open_on_one_side_reaches_the_prior():
     assert lo == p.low and 1.0 < hi < 2.0
     # nothing was evaluated below 0.5: open for want of a probe, which the fit records
     assert unprobed_sides([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], p, (lo, hi)) == ["below"]
-    # probed down to the prior's bound and still inside: the data leave it open
-    at_bound = [(p.low, 1.0), (0.5, 1.0), (1.0, 1.0), (2.0, 3.0)]
+    # probed down to the prior's bound and still inside: the data leave it open (the
+    # bound as refine_parameters' clipped probes reach it, from_unit(0), which may differ
+    # from p.low in its last digit)
+    at_bound = [(float(p.from_unit(0.0)), 1.0), (0.5, 1.0), (1.0, 1.0), (2.0, 3.0)]
     assert _interval(at_bound, 6, p)[0] == p.low
     assert unprobed_sides(at_bound, p, _interval(at_bound, 6, p)) == []
     # and an interval open above for want of a probe (nothing evaluated past 2)
     rising_left = [(0.5, 3.0), (1.0, 1.0), (2.0, 1.0)]
     assert unprobed_sides(rising_left, p, _interval(rising_left, 6, p)) == ["above"]
+    # one point, inside the prior: open both ways, for want of any probe
+    assert unprobed_sides([(1.0, 1.0)], p, _interval([(1.0, 1.0)], 6, p)) == ["below", "above"]
+    # the report says so after the interval
+    from skidsteer.reports.diagnosis import _unprobed_note
+    assert _unprobed_note(["below", "above"]) == "; not probed below or above"
+    assert _unprobed_note([]) == _unprobed_note(None) == ""
 
 
 def test_an_interval_follows_a_quadratic_profile_between_the_probes():

@@ -131,8 +131,8 @@ def _verdict(row: dict) -> tuple[str, str | None]:
 
 def wrong_name(row: dict) -> bool:
     """Whether the row names a cause (under the rules as they are now) that is not its
-    hidden one: a "wrong" outcome that names nothing (a null said unexplained, a fan
-    said no-discrepancy) is not a wrong name; the nulls' and fans' rates count those."""
+    hidden one: a "wrong" outcome that names nothing (a null said unexplained) is not a
+    wrong name; the nulls' rate counts it."""
     return _outcome(row) == "wrong" and _verdict(row)[1] is not None
 
 
@@ -174,6 +174,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "baseline_error": result["baseline_error_all_runs"],
             "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
             "removed": result["gain"]["relative_reduction"],
+            "held_out_groups": result["dataset"]["held_out_groups"],
             # what the verdict rules read (_verdict judges the row again by the rules of
             # the day)
             "noise": result["gain"]["noise_error"],

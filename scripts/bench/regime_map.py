@@ -34,10 +34,15 @@ from skidsteer.simulation.backends import LocalBackend
 NOISE_FLOOR_LOG10 = -8.0  # a band below it reads the sensor's noise, not the robot
 
 
+def steady_bands() -> list[str]:
+    """The steady window's band-power features (not the wheel-order lines)."""
+    return [n for n in comparison_feature_names() if n.startswith("steady_") and "wheel" not in n]
+
+
 def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: int,
            band: str | None = None) -> dict:
     names = list(comparison_feature_names())
-    steady = [k for k, n in enumerate(names) if n.startswith("steady_") and "wheel" not in n]
+    steady = [names.index(n) for n in steady_bands()]
     group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
     sims = simulate_groups([(model_factory(timestep=step_s), [group])] * starts, 20.0,
                            backend=LocalBackend(threads), starts=list(range(starts)),
@@ -71,11 +76,11 @@ def main(argv=None) -> int:
     ap.add_argument("--band", help="also print this steady band's log10 power from every "
                     "start (a feature name, e.g. steady_ay_9-12.5Hz)")
     args = ap.parse_args(argv)
-    if args.band is not None:
-        names = list(comparison_feature_names())
-        if args.band not in names or not args.band.startswith("steady_") or "wheel" in args.band:
-            ap.error(f"--band {args.band!r} is not a steady band: use one of "
-                     f"{[n for n in names if n.startswith('steady_') and 'wheel' not in n][:4]}...")
+    if args.starts < 2:
+        ap.error(f"--starts {args.starts}: a spread needs at least 2 starts")
+    if args.band is not None and args.band not in steady_bands():
+        ap.error(f"--band {args.band!r} is not a steady band: use one of "
+                 f"{steady_bands()[:4]}...")
     for step_s in args.steps:
         for floor in args.floors:
             for omega in args.rates:

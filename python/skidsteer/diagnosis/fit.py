@@ -207,10 +207,11 @@ class Fit:
     # whatever its rank (diagnose_observed)
     design_better: bool = False
     # the training error at the fit from each of STARTS starts (with_start_scatter; the
-    # first is the search's own start): the scatter its intervals are read against
+    # first search_starts are the search's own): the scatter its intervals are read against
     train_errors_over_starts: list[float] = dataclasses.field(default_factory=list)
     # per fitted parameter, the sides ("below", "above") where its interval runs to the
-    # prior's bound for want of a probe (unprobed_sides), not because the data leave it open
+    # prior's bound with nothing evaluated beyond it (unprobed_sides): the search did not
+    # look there, so the data may or may not bound it
     unprobed: dict[str, list[str]] = dataclasses.field(default_factory=dict)
 
     @property
@@ -351,8 +352,10 @@ def unprobed_sides(evaluations: list[tuple[float, float]], parameter,
     of a probe: _interval opens a side when no evaluated value beyond its last value
     inside the bound crosses it, and this is the case where the outermost value
     evaluated on that side lies inside the prior (the search stopped short of it),
-    not at its bound (the data do not bound it there).  refine_parameters' profile moves
-    can end on such a point (PROFILE_MOVES)."""
+    not at its bound (where an open side is the data's).  Most such sides belong to fits
+    of the main parameter alone, whose grid points are slice middles (nothing evaluated
+    between the outermost one and the prior's bound unless Brent went there); a refined
+    fit has one where refine_parameters' profile moves ran out (PROFILE_MOVES)."""
     units = [parameter.to_unit(v) for v, _ in evaluations]
     sides = []
     if interval[0] <= parameter.low and min(units) > UNIT_EDGE:
@@ -592,8 +595,9 @@ def refine_fit(fit: Fit, held: np.ndarray) -> Fit:
 
 
 def with_start_scatter(fit: Fit) -> Fit:
-    """The fit with its training error from each of STARTS starts (the training commands
-    simulated again from starts 1..STARTS-1 at the fit) and every interval read against
+    """The fit with its training error from each of STARTS starts (those the search ran
+    read from it, the others' training commands simulated at the fit) and every interval
+    read against
     interval_bound: the bound a single evaluation of the search is within, given the
     scatter the fit's own simulations show.  A fit without its evaluations is returned
     as it is."""
@@ -612,13 +616,10 @@ def with_start_scatter(fit: Fit) -> Fit:
         float(comparison.error(s.features, train)) for s in sims[1:]]
     bound = interval_bound(errors, fit.train_error, len(train), evaluate.search_starts)
     priors = cause_registry.get(fit.cause).priors
-    profiles = {name: evaluate.profile(name, fit.parameters, realisation)
-                for name in fit.fitted}
-    intervals = {name: _interval(profiles[name], len(train), priors[name], bound)
-                 for name in fit.fitted}
+    _, intervals, unprobed = _intervals(evaluate, {name: priors[name] for name in fit.fitted},
+                                        fit.parameters, realisation, bound)
     return dataclasses.replace(fit, interval=intervals[fit.main], intervals=intervals,
-                               train_errors_over_starts=errors,
-                               unprobed=_unprobed(profiles, priors, intervals))
+                               train_errors_over_starts=errors, unprobed=unprobed)
 
 
 def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
@@ -629,21 +630,28 @@ def _result(cause, evaluate: "_Evaluations", fitted: list, realisation: int,
     params, train_error, _ = evaluate.best(realisation)
     sim = evaluate.complete(params, realisation)
     held_error = evaluate.held_out_error(params, realisation, held)
-    profiles = {p.name: evaluate.profile(p.name, params, realisation) for p in fitted}
-    intervals = {p.name: _interval(profiles[p.name], len(train), p) for p in fitted}
+    profiles, intervals, unprobed = _intervals(evaluate, {p.name: p for p in fitted}, params,
+                                               realisation)
     n_params = n_parameters(cause.name, len(fitted))
     return Fit(cause.name, params, cause.main.name, intervals[cause.main.name], train_error,
                held_error, _score(held_error, n_params, len(train)), sim,
                profiles[cause.main.name], realisation if cause.random_realisation else None,
                evaluate.factory(params, realisation), intervals, evaluator=evaluate,
-               unprobed=_unprobed(profiles, {p.name: p for p in fitted}, intervals))
+               unprobed=unprobed)
 
 
-def _unprobed(profiles: dict, priors: dict, intervals: dict) -> dict[str, list[str]]:
-    """unprobed_sides of every interval that has one, by parameter name."""
-    sides = {name: unprobed_sides(profiles[name], priors[name], interval)
-             for name, interval in intervals.items()}
-    return {name: s for name, s in sides.items() if s}
+def _intervals(evaluate: "_Evaluations", priors: dict, params: dict[str, float],
+               realisation: int, bound: float | None = None) -> tuple[dict, dict, dict]:
+    """(profiles, intervals, unprobed sides) of the parameters `priors` names (name ->
+    Parameter) through `params`: each profile's interval (_interval, against `bound`
+    where given) and its sides open for want of a probe (unprobed_sides, only those
+    that have one)."""
+    profiles = {name: evaluate.profile(name, params, realisation) for name in priors}
+    intervals = {name: _interval(profiles[name], len(evaluate.train), prior, bound)
+                 for name, prior in priors.items()}
+    sides = {name: unprobed_sides(profiles[name], priors[name], intervals[name])
+             for name in priors}
+    return profiles, intervals, {name: s for name, s in sides.items() if s}
 
 
 def fit_every_parameter(evaluate, cause, start: dict[str, float], realisation: int) -> None:
@@ -932,13 +940,14 @@ def simulations_planned(names: list[str], observed: Observed,
     on every command; per cause the grid, the Brent steps, for a random geometry the
     other realisations and a second grid, for a cause with a design its points; for the
     causes contenders() can refine (every cause with a design, and the REFINE_CONTENDERS
-    costliest to refine of the others) refine_parameters' passes and profile (twice with
+    costliest to refine of the others with more than one parameter)
+    refine_parameters' passes and profile (twice with
     a mirror), each on the training commands; the held-out commands at each
     fit's end (main and refined); the pair on every command; and STARTS - 1 more starts
     of the base model's every command and of each end's and the pair's held-out ones,
-    and of each cause's final fit's training ones those the search did not run
-    (with_start_scatter); the search's (on the training commands) once per search
-    start."""
+    and STARTS - search_starts more of each cause's final fit's training commands (the
+    starts the search did not run: with_start_scatter); the search's (on the training
+    commands) once per search start."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n * (1 + PROFILE_MOVES)
@@ -946,8 +955,8 @@ def simulations_planned(names: list[str], observed: Observed,
 
     candidates = [cause_registry.get(name) for name in names]
     designed = {c.name for c in candidates if c.design is not None}
-    others = sorted((c for c in candidates if c.name not in designed), key=refining,
-                    reverse=True)
+    others = sorted((c for c in candidates if c.name not in designed and refining(c) > 0),
+                    key=refining, reverse=True)  # refine_fit leaves a one-parameter fit
     refined = designed | {c.name for c in others[:REFINE_CONTENDERS]}
     searched = sum(GRID_POINTS + REFINE_STEPS_PLANNED
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
