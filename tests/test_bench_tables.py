@@ -135,3 +135,16 @@ def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
             "verdict": "unexplained", "cause": None, "ranking": []}
     assert bench_diagnose_generalisation._outcome(null) == "wrong"
     assert not bench_diagnose_generalisation.wrong_name(null)
+
+
+def test_a_results_file_holds_rows_of_one_step(tmp_path, capsys):
+    # rows simulated at another step (--timestep) must not join the committed table's
+    # rows, which are all at the model's own step: the benchmark refuses before running
+    results = tmp_path / "rows.jsonl"
+    row = json.loads((DOCS / "diagnose-generalisation.jsonl").read_text().splitlines()[-1])
+    results.write_text(json.dumps(row) + "\n")  # written before rows recorded a step
+    with pytest.raises(SystemExit) as stopped:
+        bench_diagnose_generalisation.main(["--out", str(tmp_path), "--results", str(results),
+                                            "--datasets", "0", "--timestep", "5e-05"])
+    assert stopped.value.code == 2
+    assert str(results) in capsys.readouterr().err

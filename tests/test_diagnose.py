@@ -428,9 +428,9 @@ def test_an_interval_open_on_one_side_reaches_the_prior():
     # one point, inside the prior: open both ways, for want of any probe
     assert unprobed_sides([(1.0, 1.0)], p, _interval([(1.0, 1.0)], 6, p)) == ["below", "above"]
     # the report says so after the interval
-    from skidsteer.reports.diagnosis import _unprobed_note
-    assert _unprobed_note(["below", "above"]) == "; not probed below or above"
-    assert _unprobed_note([]) == _unprobed_note(None) == ""
+    from skidsteer.reports.diagnosis import unprobed_note
+    assert unprobed_note(["below", "above"]) == "; not probed below or above"
+    assert unprobed_note([]) == unprobed_note(None) == ""
 
 
 def test_an_interval_follows_a_quadratic_profile_between_the_probes():
@@ -983,6 +983,45 @@ def test_diagnose_writes_its_outputs(written):
     assert low <= single[0] <= single[1] <= high
     # and it records a side open for want of a probe as the saved profile shows it
     assert named["unprobed"].get("lambda_max", []) == unprobed_sides(profile, prior, (low, high))
+    # the named fit's open sides are also at the top level and under most_likely, beside
+    # the intervals they qualify
+    assert saved["unprobed"] == saved["most_likely"]["unprobed"] == named["unprobed"]
+
+
+def test_the_progress_plan_is_the_count_run_but_for_brents_steps(written):
+    # simulations_planned is a plan (a progress bar's total), not a bound: what it cannot
+    # know is how many steps each Brent search takes (it plans REFINE_STEPS_PLANNED).  A
+    # one-parameter cause is not refined and one cause has no pair, so with the steps
+    # the search took (its saved profile: the grid's points and Brent's) the plan must
+    # be the count the written diagnosis ran, exactly (nothing was reused).  The plan
+    # once counted a pair here (7 simulations too many).
+    from skidsteer.diagnosis.fit import REFINE_STEPS_PLANNED, simulations_planned
+    from skidsteer.reports.diagnosis import _observed as read_observed
+    data, out, result = written
+    saved = json.loads((out / "diagnosis.json").read_text())
+    assert saved["simulations"]["reused"] == 0
+    observed = read_observed(data, None)
+    trained = len(observed.groups) - len(saved["dataset"]["held_out_groups"])
+    brent_steps = len(saved["ranking"][0]["profile"]) - GRID_POINTS
+    planned = simulations_planned(["slip_lambda_max"], observed)
+    unplanned = (brent_steps - REFINE_STEPS_PLANNED) * trained
+    assert saved["simulations"]["simulated"] == planned + unplanned
+
+
+def test_the_verdict_printout_says_which_interval_sides_are_unprobed(capsys):
+    from skidsteer.cli import _print_verdict
+    result = {"verdict": "explained", "cause": "friction_mu_s", "reason": "r",
+              "parameters": {"mu_s": 0.42, "mu_k": 0.4},
+              "intervals": {"mu_s": [0.4, 0.43], "mu_k": [0.3, 0.5]},
+              "unprobed": {"mu_s": ["below"]}}
+    _print_verdict(result)
+    lines = capsys.readouterr().out.splitlines()
+    assert "  mu_s = 0.42 (interval 0.4 to 0.43; not probed below)" in lines
+    assert "  mu_k = 0.4 (interval 0.3 to 0.5)" in lines
+    # a diagnosis.json written before the field existed prints as before
+    del result["unprobed"]
+    _print_verdict(result)
+    assert "  mu_s = 0.42 (interval 0.4 to 0.43)" in capsys.readouterr().out.splitlines()
 
 
 def _comparable(diagnosis_json: dict) -> dict:

@@ -30,7 +30,7 @@ from skidsteer.experiments.straight import straight
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
 from skidsteer.experiments.swivel import run_swivel, swivel_summary
 from skidsteer.reports.analysis import analyze_paths
-from skidsteer.reports.diagnosis import compare, diagnose
+from skidsteer.reports.diagnosis import compare, diagnose, unprobed_note
 from skidsteer.reports.real_data import diagnose_recordings
 from skidsteer.reports.reproduction import reproduce
 from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
@@ -307,7 +307,9 @@ def _print_verdict(result: dict, *more: str) -> None:
         print(line)
     for name, value in result["parameters"].items():
         interval = result["intervals"].get(name)
-        extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g})" if interval else ""
+        # a side open for want of a probe (fit.unprobed_sides) says so, as in the report
+        note = unprobed_note(result.get("unprobed", {}).get(name))
+        extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g}{note})" if interval else ""
         print(f"  {name} = {value:.4g}{extra}")
 
 

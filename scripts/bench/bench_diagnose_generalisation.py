@@ -141,12 +141,14 @@ def _outcome(row: dict) -> str:
     return outcome(row["effect"], *_verdict(row), row["baseline_error"])
 
 
-def generate(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> dict:
-    """Writes the case's dataset to out/datasets/CASE; returns its truth."""
+def generate(case: dict, out: Path, trials: int, duration_s: float, threads: int,
+             timestep: float | None = None) -> dict:
+    """Writes the case's dataset to out/datasets/CASE (simulated at `timestep`, None: the
+    model's own); returns its truth."""
     return make_dataset(out / "datasets" / case["case"], case["effect"], case["params"],
                         seed=case["seed"], omegas=case["omegas"], trials=trials,
                         duration_s=duration_s, setup=Setup(build="extended", floor=case["floor"]),
-                        nthread=threads, held="prior")
+                        nthread=threads, held="prior", timestep=timestep)
 
 
 def case_of(row: dict) -> dict:
@@ -158,12 +160,14 @@ def case_of(row: dict) -> dict:
 
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
-             search_starts: int = SEARCH_STARTS) -> dict:
+             search_starts: int = SEARCH_STARTS, timestep: float | None = None) -> dict:
+    """The case's row: its dataset generated and diagnosed, both at `timestep` (None: the
+    model's own step, as every committed row)."""
     data = out / "datasets" / case["case"]
     started = time.perf_counter()
-    truth = generate(case, out, trials, duration_s, threads)
+    truth = generate(case, out, trials, duration_s, threads, timestep)
     generated_s = time.perf_counter() - started
-    result = diagnose(data, None, nthread=threads, progress=True,
+    result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
                       cache_dir=out / "simulations", search_starts=search_starts)
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
@@ -190,7 +194,10 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
                                result["baseline_error_all_runs"]),
             "generate_s": round(generated_s, 1), "diagnose_s": result["wall_time_s"],
             # the code that diagnosed it (a resumed run may mix versions: the report says)
-            "code": code_fingerprint()[:12], "search_starts": result["search_starts"]}
+            "code": code_fingerprint()[:12], "search_starts": result["search_starts"],
+            # the step the data and the model were simulated at (None: the model's own;
+            # issue 18's question, asked of 1211 at 0.05 ms)
+            "timestep_s": timestep}
 
 
 def _recovery(row: dict) -> str:
@@ -393,6 +400,9 @@ def main(argv=None) -> int:
     ap.add_argument("--search-starts", type=int, default=SEARCH_STARTS,
                     choices=range(1, STARTS + 1), help="diagnose's "
                     "search_starts (the rows record it; the table's rows use the default)")
+    ap.add_argument("--timestep", type=float, help="simulate the data and the model at "
+                    "this step, s (default: the model's own; rows of one results file share "
+                    "one step)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -412,13 +422,18 @@ def main(argv=None) -> int:
     results = args.results or args.out / "results.jsonl"
     done = newest_rows(results)
     rerun = set(args.rerun)
+    steps = {r.get("timestep_s") for r in done.values()}
+    if not args.report and steps - {args.timestep}:
+        ap.error(f"{results} holds rows simulated at step(s) "
+                 f"{sorted(map(str, steps - {args.timestep}))}, not --timestep "
+                 f"{args.timestep}: give another --results")
     if not args.report:
         for case in plan(args.datasets, args.first_seed):
             if (case["case"] in done and case["case"] not in rerun) or (
                     args.only and case["case"] not in args.only):
                 continue
             row = run_case(case, args.out, args.trials, args.duration, args.threads,
-                           args.search_starts)
+                           args.search_starts, args.timestep)
             done[row["case"]] = row
             with open(results, "a") as f:
                 f.write(json.dumps(row) + "\n")

@@ -1,5 +1,6 @@
-"""A generalisation draw diagnosed again with one more command: does a training command
-next to the held-out one pin down what the training runs left open?
+"""A generalisation draw diagnosed again with one more command, or at another step: does
+a training command next to the held-out one pin down what the training runs left open;
+does a finer step change the verdict?
 
 The draw is read from the committed rows (its effect, seed, floor and commands), so
 its truth and the runs of its own commands are the benchmark's (the truth is drawn
@@ -13,6 +14,10 @@ the training runs score 0.0062-0.0105 alike) and 1170 (mu_s fitted where the tra
 runs score lower than at the truth) are what it was written for.
 
     python scripts/bench/extra_command.py 1191 50 --out /tmp/extra
+    python scripts/bench/extra_command.py 1211 --timestep 5e-5 --out /tmp/step
+
+The second generates the draw's data and diagnoses it at 0.05 ms (issue 18's question:
+1211, a null, fails at the default 0.1 ms, whose 30 deg/s on carpet has two regimes).
 
 Prints the benchmark's row for the new dataset (bench_diagnose_generalisation.run_case:
 everything the verdict rules read) as one JSON line and appends it to OUT/rows.jsonl.
@@ -37,7 +42,10 @@ ROWS = Path(__file__).resolve().parents[2] / "docs" / "diagnose-generalisation.j
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("seed", type=int, help="the draw's seed (draw-SEED)")
-    ap.add_argument("extra_deg_s", type=float, help="the added command's swivel rate, deg/s")
+    ap.add_argument("extra_deg_s", type=float, nargs="?",
+                    help="the added command's swivel rate, deg/s (none: the draw's commands)")
+    ap.add_argument("--timestep", type=float, help="generate and diagnose at this step, s "
+                    "(default: the model's own)")
     ap.add_argument("--results", type=Path, default=ROWS,
                     help="the benchmark rows the draw is read from (default: the committed)")
     ap.add_argument("--out", type=Path, required=True)
@@ -47,11 +55,16 @@ def main(argv=None) -> int:
     if f"draw-{args.seed}" not in rows:
         ap.error(f"no row draw-{args.seed} in {args.results}")
     drawn = generalisation.case_of(rows[f"draw-{args.seed}"])
+    if args.extra_deg_s is None and args.timestep is None:
+        ap.error("give an extra command, a --timestep, or both")
     if args.extra_deg_s in drawn["omegas"]:
         ap.error(f"draw {args.seed} already has {args.extra_deg_s:g} deg/s: {drawn['omegas']}")
-    case = {**drawn, "case": f"draw-{args.seed}-plus{args.extra_deg_s:g}",
-            "omegas": sorted([*drawn["omegas"], args.extra_deg_s])}
-    row = generalisation.run_case(case, args.out, 3, 20.0, args.threads)
+    extra = [] if args.extra_deg_s is None else [args.extra_deg_s]
+    case = {**drawn, "case": f"draw-{args.seed}" + "".join(f"-plus{w:g}" for w in extra)
+            + (f"-step{args.timestep:g}" if args.timestep is not None else ""),
+            "omegas": sorted([*drawn["omegas"], *extra])}
+    row = generalisation.run_case(case, args.out, 3, 20.0, args.threads,
+                                  timestep=args.timestep)
     middle = sorted(drawn["omegas"])[1]  # split()'s held-out command with three
     row["held_out_as_drawn"] = any(label.split()[0] == f"v0-w{middle:g}"
                                    for label in row["held_out_groups"])

@@ -943,7 +943,8 @@ def simulations_planned(names: list[str], observed: Observed,
     costliest to refine of the others with more than one parameter)
     refine_parameters' passes and profile (twice with
     a mirror), each on the training commands; the held-out commands at each
-    fit's end (main and refined); the pair on every command; and STARTS - 1 more starts
+    fit's end (main and refined); the pair (of two causes or more) on every command; and
+    STARTS - 1 more starts
     of the base model's every command and of each end's and the pair's held-out ones,
     and STARTS - search_starts more of each cause's final fit's training commands (the
     starts the search did not run: with_start_scatter); the search's (on the training
@@ -967,9 +968,10 @@ def simulations_planned(names: list[str], observed: Observed,
     n_trained = len(set(observed.run_group[train].tolist()))
     n_held = len(set(observed.run_group[held].tolist()))
     ends = len(names) + len(refined)
-    return (2 * n_groups + n_trained * searched * search_starts
+    pair = 1 if len(names) > 1 else 0  # fit_pair needs two causes
+    return ((1 + pair) * n_groups + n_trained * searched * search_starts
             + (n_groups - n_trained) * ends
-            + (STARTS - 1) * (n_groups + n_held * (ends + 1))
+            + (STARTS - 1) * (n_groups + n_held * (ends + pair))
             + max(STARTS - search_starts, 0) * n_trained * len(names))
 
 
@@ -1010,12 +1012,15 @@ class Diagnosis:
             "reason": self.reason,
             "parameters": named.parameters if named else {},
             "intervals": ({k: list(v) for k, v in named.intervals.items()} if named else {}),
+            # the intervals' sides open for want of a probe (unprobed_sides)
+            "unprobed": dict(named.unprobed) if named else {},
             # the best candidate whatever the verdict: what it removes and what it leaves
             "most_likely": None if best is None else {
                 "cause": best.cause, "named": named is not None,
                 "removed": best.removed, "held_out_error": best.held_out_error,
                 "parameters": best.parameters,
                 "intervals": {k: list(v) for k, v in best.intervals.items()},
+                "unprobed": dict(best.unprobed),
                 "left": self.comparison.discrepancies(best.simulated.features)},
             "best_pair": self.pair,
             "ranking": [{"cause": f.cause, "held_out_error": f.held_out_error,

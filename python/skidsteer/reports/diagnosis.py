@@ -295,7 +295,7 @@ def _base_by_group(dataset: dict) -> list[str]:
                         for label, error in errors.items()) + ".", ""]
 
 
-def _unprobed_note(sides: list[str] | None) -> str:
+def unprobed_note(sides: list[str] | None) -> str:
     """An interval's sides that end at the prior's bound for want of a probe
     (fit.unprobed_sides): the search did not go there, the data may well bound it."""
     return f"; not probed {' or '.join(sides)}" if sides else ""
@@ -415,7 +415,7 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         diagnosis["reason"] + ".", ""]
     if named is not None:
         fitted = [f"{k} = **{_fmt(named.parameters[k], 4)}** (interval {_fmt(lo)} to "
-                  f"{_fmt(hi)}{_unprobed_note(named.unprobed.get(k))})"
+                  f"{_fmt(hi)}{unprobed_note(named.unprobed.get(k))})"
                   for k, (lo, hi) in named.intervals.items()]
         held = [f"{k} = {_fmt(v)}" for k, v in named.parameters.items()
                 if k not in named.intervals]
@@ -449,7 +449,7 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
                [[f["cause"], _fmt(f["held_out_error"]), _fmt(f["train_error"]), _fmt(f["score"]),
                  f"{f['removed']:.0%}",
                  "; ".join(f"{k} = {_fmt(f['parameters'][k])} ({_fmt(a)}-{_fmt(b)}"
-                           f"{_unprobed_note(f.get('unprobed', {}).get(k))})"
+                           f"{unprobed_note(f.get('unprobed', {}).get(k))})"
                            for k, (a, b) in f["interval"].items())]
                 for f in diagnosis["ranking"]]) if diagnosis["ranking"] else "(none fitted)", "",
         "## What the base model gets wrong (trial-mean z > 3)", "",
