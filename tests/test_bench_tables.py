@@ -8,6 +8,7 @@ import json
 import re
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import REPO
@@ -148,3 +149,20 @@ def test_a_results_file_holds_rows_of_one_step(tmp_path, capsys):
                                             "--datasets", "0", "--timestep", "5e-05"])
     assert stopped.value.code == 2
     assert str(results) in capsys.readouterr().err
+
+
+def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():
+    import regime_map
+    # three bands over 4 starts: two regimes (1e-5 and 1e-7), one steady band, one at
+    # the sensor's floor (1e-9, below NOISE_FLOOR_LOG10 = -8: left out however it spreads)
+    power = np.array([[1e-5, 1e-6, 1e-9], [1e-7, 1e-6, 1e-11],
+                      [1e-5, 1e-6, 1e-9], [1e-7, 1e-6, 1e-11]])
+    row = regime_map.band_spread(power, ["two", "one", "floor"])
+    assert row["bands"] == 2 and row["worst"] == "two"
+    assert row["max_sd"] == pytest.approx(np.std([-5, -7, -5, -7], ddof=1))
+    assert row["median_sd"] == pytest.approx(row["max_sd"] / 2)
+    assert row["worst_values"] == [-5, -7, -5, -7]
+    # a quiet command (issue 21: concrete at 50 deg/s) has no band to read, not a crash
+    quiet = regime_map.band_spread(np.full((4, 3), 1e-10), ["a", "b", "c"])
+    assert quiet == {"bands": 0, "max_sd": None, "median_sd": None, "worst": None,
+                     "worst_values": []}

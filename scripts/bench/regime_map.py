@@ -39,30 +39,42 @@ def steady_bands() -> list[str]:
     return [n for n in comparison_feature_names() if n.startswith("steady_") and "wheel" not in n]
 
 
-def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: int,
-           band: str | None = None) -> dict:
-    names = list(comparison_feature_names())
-    steady = [names.index(n) for n in steady_bands()]
-    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
-    sims = simulate_groups([(model_factory(timestep=step_s), [group])] * starts, 20.0,
-                           backend=LocalBackend(threads), starts=list(range(starts)),
-                           signals=False)
-    power = np.array([s.features[0][steady] for s in sims])
+def band_spread(power: np.ndarray, bands: list[str]) -> dict:
+    """The spread over starts (axis 0) of each band's (axis 1, named `bands`) log10
+    power: the bands above the sensor's noise floor, the largest and the median
+    standard deviation, and the worst band's values; no bands (a quiet command) gives
+    None and no values."""
     with np.errstate(divide="ignore", invalid="ignore"):
         log_power = np.log10(np.where(power > 0, power, np.nan))
     with warnings.catch_warnings():  # bands with no power at all: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
         log_power[:, ~(np.nanmedian(log_power, axis=0) > NOISE_FLOOR_LOG10)] = np.nan
         sd = np.nanstd(log_power, axis=0, ddof=1)
+    row = {"bands": int(np.sum(np.isfinite(sd)))}
+    if not row["bands"]:  # every band at the sensor's floor: no spread to read
+        return {**row, "max_sd": None, "median_sd": None, "worst": None, "worst_values": []}
     worst = int(np.nanargmax(sd))
+    return {**row, "max_sd": float(sd[worst]), "median_sd": float(np.nanmedian(sd)),
+            "worst": bands[worst],
+            "worst_values": [round(float(v), 2) for v in log_power[:, worst]]}
+
+
+def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: int,
+           band: str | None = None) -> dict:
+    """band_spread of the base model's steady bands over `starts` starts of one command."""
+    names = list(comparison_feature_names())
+    bands = steady_bands()
+    steady = [names.index(n) for n in bands]
+    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
+    sims = simulate_groups([(model_factory(timestep=step_s), [group])] * starts, 20.0,
+                           backend=LocalBackend(threads), starts=list(range(starts)),
+                           signals=False)
+    power = np.array([s.features[0][steady] for s in sims])
     row = {"step_s": step_s, "floor": floor, "omega_deg_s": omega_deg_s, "starts": starts,
-           "bands": int(np.sum(np.isfinite(sd))), "max_sd": float(sd[worst]),
-           "median_sd": float(np.nanmedian(sd)), "worst": names[steady[worst]],
-           "worst_values": [round(float(v), 2) for v in log_power[:, worst]]}
+           **band_spread(power, bands)}
     if band is not None:  # one band's values from every start, whatever its level
         with np.errstate(divide="ignore"):
-            row[band] = [round(float(v), 2) for v in np.log10(power[:, steady.index(
-                names.index(band))])]
+            row[band] = [round(float(v), 2) for v in np.log10(power[:, bands.index(band)])]
     return row
 
 
