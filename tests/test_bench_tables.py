@@ -166,3 +166,18 @@ def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():
     quiet = regime_map.band_spread(np.full((4, 3), 1e-10), ["a", "b", "c"])
     assert quiet == {"bands": 0, "max_sd": None, "median_sd": None, "worst": None,
                      "worst_values": []}
+
+
+def test_extra_command_needs_a_change_and_refuses_a_command_the_draw_has(tmp_path, capsys):
+    # a draw diagnosed again must differ from its row: one more command, another step, or
+    # both; a command the draw already has is refused by name (both before any simulation)
+    import extra_command
+    with pytest.raises(SystemExit):
+        extra_command.main(["1211", "--out", str(tmp_path)])
+    assert "give an extra command, a --timestep, or both" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        extra_command.main(["1211", "30", "--out", str(tmp_path)])  # 1211: 30/55/60 deg/s
+    assert "already has 30 deg/s" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        extra_command.main(["999", "--timestep", "5e-5", "--out", str(tmp_path)])
+    assert "no row draw-999" in capsys.readouterr().err
