@@ -21,8 +21,9 @@ The second generates the draw's data and diagnoses it at 0.05 ms (issue 18's que
 
 Prints the benchmark's row for the new dataset (bench_diagnose_generalisation.run_case:
 everything the verdict rules read) as one JSON line and appends it to OUT/rows.jsonl.
-Costs a diagnosis of 4 commands (1992-2257 s for 1170 and 1191 with another job on
-the two cores).
+Costs a diagnosis: of 4 commands 1992-2257 s (1170 and 1191 with another job on the
+two cores); of 3 at 0.05 ms 2311 s (1213; 796 s at 0.1 ms), 124 s where the base model
+already fits (1211, no-discrepancy).
 """
 
 from __future__ import annotations
