@@ -396,7 +396,8 @@ def main(argv=None) -> int:
     ap.add_argument("--first-seed", type=int, default=1000, help="the first draw's seed; "
                     "the effects' cycle starts here, so to continue a results file's draws "
                     "give their run's first seed and more --datasets (the committed draws: "
-                    "1000-1039 from 1000, 1080-1176 from 1080, 1177 on from 1177)")
+                    "1000-1039 from 1000, 1040-1079 from 1040, 1080-1176 from 1080, 1177 on from "
+                    "1177)")
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--duration", type=float, default=20.0, help="record length, s")
     ap.add_argument("--threads", type=int, default=2)
