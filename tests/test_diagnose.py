@@ -1010,18 +1010,20 @@ def test_the_progress_plan_is_the_count_run_but_for_brents_steps(written):
 
 def test_the_verdict_printout_says_which_interval_sides_are_unprobed(capsys):
     from skidsteer.cli import _print_verdict
-    result = {"verdict": "explained", "cause": "friction_mu_s", "reason": "r",
-              "parameters": {"mu_s": 0.42, "mu_k": 0.4},
-              "intervals": {"mu_s": [0.4, 0.43], "mu_k": [0.3, 0.5]},
-              "unprobed": {"mu_s": ["below"]}}
+    # a cause of the registry's, as a diagnosis.json holds it
+    result = {"verdict": "explained", "cause": "loose_payload", "reason": "r",
+              "parameters": {"frequency_hz": 5.4, "damping_ratio": 0.08},
+              "intervals": {"frequency_hz": [4.5, 5.8], "damping_ratio": [0.05, 0.15]},
+              "unprobed": {"damping_ratio": ["below"]}}
     _print_verdict(result)
     lines = capsys.readouterr().out.splitlines()
-    assert "  mu_s = 0.42 (interval 0.4 to 0.43; not probed below)" in lines
-    assert "  mu_k = 0.4 (interval 0.3 to 0.5)" in lines
+    assert "  damping_ratio = 0.08 (interval 0.05 to 0.15; not probed below)" in lines
+    assert "  frequency_hz = 5.4 (interval 4.5 to 5.8)" in lines
     # a diagnosis.json written before the field existed prints as before
     del result["unprobed"]
     _print_verdict(result)
-    assert "  mu_s = 0.42 (interval 0.4 to 0.43)" in capsys.readouterr().out.splitlines()
+    assert ("  damping_ratio = 0.08 (interval 0.05 to 0.15)"
+            in capsys.readouterr().out.splitlines())
 
 
 def _comparable(diagnosis_json: dict) -> dict:

@@ -426,12 +426,12 @@ def main(argv=None) -> int:
     results = args.results or args.out / "results.jsonl"
     done = newest_rows(results)
     rerun = set(args.rerun)
-    steps = {r.get("timestep_s") for r in done.values()}
-    if not args.report and steps - {args.timestep}:
-        ap.error(f"{results} holds rows simulated at step(s) "
-                 f"{sorted(map(str, steps - {args.timestep}))}, not --timestep "
-                 f"{args.timestep}: give another --results")
     if not args.report:
+        other_steps = {r.get("timestep_s") for r in done.values()} - {args.timestep}
+        if other_steps:
+            ap.error(f"{results} holds rows simulated at step(s) "
+                     f"{sorted(map(str, other_steps))}, not --timestep {args.timestep}: "
+                     "give another --results")
         for case in plan(args.datasets, args.first_seed):
             if (case["case"] in done and case["case"] not in rerun) or (
                     args.only and case["case"] not in args.only):

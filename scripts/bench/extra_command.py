@@ -61,9 +61,10 @@ def main(argv=None) -> int:
     if args.extra_deg_s in drawn["omegas"]:
         ap.error(f"draw {args.seed} already has {args.extra_deg_s:g} deg/s: {drawn['omegas']}")
     extra = [] if args.extra_deg_s is None else [args.extra_deg_s]
-    case = {**drawn, "case": f"draw-{args.seed}" + "".join(f"-plus{w:g}" for w in extra)
-            + (f"-step{args.timestep:g}" if args.timestep is not None else ""),
-            "omegas": sorted([*drawn["omegas"], *extra])}
+    name = f"draw-{args.seed}" + (f"-plus{args.extra_deg_s:g}" if extra else "")
+    if args.timestep is not None:
+        name += f"-step{args.timestep:g}"
+    case = {**drawn, "case": name, "omegas": sorted([*drawn["omegas"], *extra])}
     row = generalisation.run_case(case, args.out, 3, 20.0, args.threads,
                                   timestep=args.timestep)
     middle = sorted(drawn["omegas"])[1]  # split()'s held-out command with three

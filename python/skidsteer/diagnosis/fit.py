@@ -943,9 +943,8 @@ def simulations_planned(names: list[str], observed: Observed,
     costliest to refine of the others with more than one parameter)
     refine_parameters' passes and profile (twice with
     a mirror), each on the training commands; the held-out commands at each
-    fit's end (main and refined); the pair (of two causes or more) on every command; and
-    STARTS - 1 more starts
-    of the base model's every command and of each end's and the pair's held-out ones,
+    fit's end (main and refined); the pair (of two causes or more) on every command;
+    and STARTS - 1 more starts of the base model's every command and of each end's and the pair's held-out ones,
     and STARTS - search_starts more of each cause's final fit's training commands (the
     starts the search did not run: with_start_scatter); the search's (on the training
     commands) once per search start."""
