@@ -49,7 +49,24 @@ if [[ $with_tests -eq 1 ]]; then
   apt_install xvfb xauth libegl1 libgl1-mesa-dri || true
 fi
 
-[[ -x "$VENV/bin/python" ]] || "$PYTHON" -m venv "$VENV"
+# A virtual environment whose python runs as one (its prefix is not its base's): a
+# half-made one (a fresh clone's first install once ran pip in the base interpreter,
+# then lost .venv/bin/python, and failed three lines later with "No such file") is made
+# again once, then refused with what was found.
+is_venv() {
+  [[ -x "$VENV/bin/python" ]] &&
+    "$VENV/bin/python" -c 'import sys; sys.exit(sys.prefix == sys.base_prefix)' 2>/dev/null
+}
+if ! is_venv; then
+  [[ -e "$VENV" ]] && echo "install: $VENV is not a working virtual environment; making it again" >&2
+  "$PYTHON" -m venv --clear "$VENV"
+fi
+if ! is_venv; then
+  echo "install: '$PYTHON -m venv $VENV' did not make a working virtual environment" \
+       "($VENV/bin/python: $(ls -l "$VENV/bin/python" 2>&1)); remove $VENV and run again," \
+       "or set PYTHON to another interpreter" >&2
+  exit 1
+fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 # The library versions the README's numbers were measured with (constraints.txt, made
 # on Python 3.11): for pip and for the plugin's isolated build.
