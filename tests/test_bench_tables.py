@@ -138,17 +138,23 @@ def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
     assert not bench_diagnose_generalisation.wrong_name(null)
 
 
-def test_a_results_file_holds_rows_of_one_step(tmp_path, capsys):
-    # rows simulated at another step (--timestep) must not join the committed table's
-    # rows, which are all at the model's own step: the benchmark refuses before running
+@pytest.mark.parametrize("option, named", [(["--timestep", "5e-05"], "step"),
+                                           (["--model-spread"], "model_spread")])
+def test_a_results_file_holds_rows_of_one_step_and_one_scale(tmp_path, capsys, option,
+                                                              named):
+    # rows simulated at another step (--timestep) or read against another scale
+    # (--model-spread) must not join the committed table's rows, which are all at the
+    # model's own step and the trials' scale: the benchmark refuses before running,
+    # naming the file and what differs
     results = tmp_path / "rows.jsonl"
     row = json.loads((DOCS / "diagnose-generalisation.jsonl").read_text().splitlines()[-1])
-    results.write_text(json.dumps(row) + "\n")  # written before rows recorded a step
+    results.write_text(json.dumps(row) + "\n")  # written before rows recorded either
     with pytest.raises(SystemExit) as stopped:
         bench_diagnose_generalisation.main(["--out", str(tmp_path), "--results", str(results),
-                                            "--datasets", "0", "--timestep", "5e-05"])
+                                            "--datasets", "0", *option])
     assert stopped.value.code == 2
-    assert str(results) in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert str(results) in err and named in err
 
 
 def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():

@@ -30,7 +30,7 @@ from skidsteer import diagnosis
 from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
-                                            model_factory, simulate_group, wheel_rates_hz)
+                                            Simulated, model_factory, simulate_group, wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
                                      PROFILE_MOVES, REFINE_STEPS, STARTS, _interval,
@@ -188,6 +188,48 @@ def test_a_perfect_simulation_scores_zero_and_the_sensor_offset_is_a_nuisance():
     assert np.abs(z).max() < 1e-9
     # the centripetal feature's scale is at least its resolution
     assert comp.scale[-1] >= CENTRIPETAL_RESOLUTION_M_S2
+
+
+def test_the_models_own_start_spread_widens_the_scale_at_its_command():
+    # two commands, two trials each, every band power 1e-6 (log -6) give or take 0.01
+    # decade: the trials' spread is below the estimator's resolution (0.1 decade)
+    measured = np.full((4, N_POWER + 1), 1e-6)
+    measured[:, :N_POWER] *= 10 ** np.array([0.01, -0.01, 0.01, -0.01])[:, None]
+    measured[:, -1] = 0.05
+    comp = Comparison(_observed(measured, [0, 0, 1, 1]))
+    assert np.allclose(comp.scale[:N_POWER], 0.1)
+    # the model's starts: band 0 in two regimes at command 0 (1e-4 and 1e-2: 2 decades
+    # apart, two starts each), every other band repeats itself
+    def start(power0):
+        f = np.full((2, N_POWER + 1), 1e-4)
+        f[0, 0] = power0
+        f[:, -1] = 0.05
+        return Simulated([], [], [0.0, 0.0], f)
+    starts = [start(1e-4), start(1e-2), start(1e-4), start(1e-2)]
+    spread = comp.start_spread(starts)
+    # band 0 at command 0: deviations of +-1 decade (the measurement's floor, 1e-6, added
+    # to both takes 0.4 % off), sqrt(4 / 3) decades; nothing at command 1 or elsewhere
+    assert spread.shape == (2, N_POWER + 1)
+    assert spread[0, 0] == pytest.approx(np.sqrt(4 / 3), rel=5e-3)
+    assert np.count_nonzero(spread) == 1
+    wider = comp.with_model_spread(starts)
+    assert wider.scale[0, 0] == pytest.approx(np.hypot(0.1, spread[0, 0]), rel=1e-9)
+    assert np.array_equal(wider.scale[1], comp.scale) and np.array_equal(
+        wider.scale[0, 1:], comp.scale[1:])
+    # a simulation in either regime counts for that much less on band 0 at command 0
+    # (runs 0 and 1), and as before everywhere else
+    loud, runs = start(1e-2).features, np.arange(4)
+    with np.errstate(invalid="ignore"):  # the centripetal mean: 0 / 0
+        ratio = wider.z_scores(loud, runs) / comp.z_scores(loud, runs)
+    assert np.allclose(ratio[:2, 0], 0.1 / np.hypot(0.1, spread[0, 0]), rtol=1e-9)
+    assert np.allclose(ratio[2:, :N_POWER], 1.0) and np.allclose(ratio[:, 1:N_POWER], 1.0)
+    # and the noise error is read against the wider scale (the trials' spread is 0.1)
+    trial = comp.observed.trial_spread()
+    assert wider.noise_error() == pytest.approx(
+        np.sqrt(np.mean((trial / wider.scale) ** 2)), rel=1e-12)
+    assert wider.noise_error() < comp.noise_error()
+    with pytest.raises(ValueError, match="2 starts or more"):
+        comp.with_model_spread(starts[:1])
 
 
 def test_split_holds_out_the_middle_command():
@@ -956,6 +998,10 @@ def test_diagnose_writes_its_outputs(written):
     assert set(saved["gain"]) >= {"metric", "baseline_error", "extended_error",
                                   "relative_reduction"}
     assert saved["search_starts"] == 1  # the default: the search reads the start from rest
+    # the default scale is the trials' spread alone (--model-spread adds the model's), and
+    # the metric says which
+    assert saved["model_spread"] is False
+    assert "start-to-start spread" not in saved["gain"]["metric"]
     assert [s["file"] for s in saved["skipped_runs"]] == ["broken.csv"]
     assert "broken.csv" in saved["skipped_runs"][0]["reason"]
     assert (out / "report.md").read_text().count("figures/") == 2

@@ -315,13 +315,15 @@ def _print_verdict(result: dict, *more: str) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     if is_imu_folder(args.dataset):
-        if args.search_starts != SEARCH_STARTS:
-            print(f"skidsteer: --search-starts applies to a dataset's fits; {args.dataset} "
+        if args.search_starts != SEARCH_STARTS or args.model_spread:
+            print(f"skidsteer: --search-starts and --model-spread apply to a dataset's fits; "
+                  f"{args.dataset} "
                   "holds real recordings, whose diagnosis fits no causes", file=sys.stderr)
             return 2
         return _diagnose_recordings(args)
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
-                                   cache_dir=args.cache, search_starts=args.search_starts)
+                                   cache_dir=args.cache, search_starts=args.search_starts,
+                                   model_spread=args.model_spread)
     if result is None:
         return code
     g = result["gain"]
@@ -513,6 +515,11 @@ def build_parser() -> argparse.ArgumentParser:
                                 f"starts (1-{STARTS}; default {SEARCH_STARTS}: from rest only): "
                                 "a guard against one start in a rare regime, at N times the "
                                 "search's simulations")
+            p.add_argument("--model-spread", action="store_true",
+                           help="read every discrepancy against the trials' spread and the "
+                                "base model's own start-to-start spread together (its "
+                                f"{STARTS} simulated starts of each command): features the "
+                                "model itself does not repeat count for less")
         _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

@@ -160,15 +160,18 @@ def case_of(row: dict) -> dict:
 
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
-             search_starts: int = SEARCH_STARTS, timestep: float | None = None) -> dict:
+             search_starts: int = SEARCH_STARTS, timestep: float | None = None,
+             model_spread: bool = False) -> dict:
     """The case's row: its dataset generated and diagnosed, both at `timestep` (None: the
-    model's own step, as every committed row)."""
+    model's own step, as every committed row); model_spread: diagnose's (False in every
+    committed row)."""
     data = out / "datasets" / case["case"]
     started = time.perf_counter()
     truth = generate(case, out, trials, duration_s, threads, timestep)
     generated_s = time.perf_counter() - started
     result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
-                      cache_dir=out / "simulations", search_starts=search_starts)
+                      cache_dir=out / "simulations", search_starts=search_starts,
+                      model_spread=model_spread)
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
@@ -197,7 +200,10 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "code": code_fingerprint()[:12], "search_starts": result["search_starts"],
             # the step the data and the model were simulated at (None: the model's own;
             # issue 18's question, asked of 1211 at 0.05 ms)
-            "timestep_s": timestep}
+            "timestep_s": timestep,
+            # the comparison's scale held the base model's start-to-start spread (issue
+            # 18's option (d), asked of the draws 1177-1215 and the nulls)
+            "model_spread": model_spread}
 
 
 def _recovery(row: dict) -> str:
@@ -407,6 +413,8 @@ def main(argv=None) -> int:
     ap.add_argument("--timestep", type=float, help="simulate the data and the model at "
                     "this step, s (default: the model's own; rows of one results file share "
                     "one step)")
+    ap.add_argument("--model-spread", action="store_true", help="diagnose with "
+                    "--model-spread (rows of one results file share the setting)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -432,12 +440,17 @@ def main(argv=None) -> int:
             ap.error(f"{results} holds rows simulated at step(s) "
                      f"{sorted(map(str, other_steps))}, not --timestep {args.timestep}: "
                      "give another --results")
+        other_spread = {bool(r.get("model_spread")) for r in done.values()} - {
+            args.model_spread}
+        if other_spread:
+            ap.error(f"{results} holds rows diagnosed with model_spread "
+                     f"{sorted(other_spread)}, not {args.model_spread}: give another --results")
         for case in plan(args.datasets, args.first_seed):
             if (case["case"] in done and case["case"] not in rerun) or (
                     args.only and case["case"] not in args.only):
                 continue
             row = run_case(case, args.out, args.trials, args.duration, args.threads,
-                           args.search_starts, args.timestep)
+                           args.search_starts, args.timestep, args.model_spread)
             done[row["case"]] = row
             with open(results, "a") as f:
                 f.write(json.dumps(row) + "\n")

@@ -1038,7 +1038,9 @@ class Diagnosis:
                         for f in self.fits],
             "gain": {
                 "metric": "held-out RMS z-score of the spectral features (start-up and steady "
-                          "band powers per axis, centripetal mean) against the trials' spread, "
+                          "band powers per axis, centripetal mean) against the trials' spread"
+                          + (" and the base model's start-to-start spread together"
+                             if self.comparison.model_spread is not None else "") + ", "
                           f"the median over {STARTS} simulated starts; "
                           "relative_reduction is the fraction of its square in excess of the "
                           "trial noise (noise_error^2) that the extended model removes",
@@ -1091,11 +1093,13 @@ class BaseAndSplit(NamedTuple):
 
 
 def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorChain,
-                   backend, progress=None, cache=None, signals: bool = False
-                   ) -> BaseAndSplit:
+                   backend, progress=None, cache=None, signals: bool = False,
+                   model_spread: bool = False) -> BaseAndSplit:
     """The base model simulated on every command from every start, the comparison it
     reads the records with, and the split of training and held-out runs (diagnose's first
-    two steps; scripts/bench/profile_fit.py reads them too)."""
+    two steps; scripts/bench/profile_fit.py reads them too).  model_spread: the
+    comparison's scale also holds the base model's start-to-start spread
+    (Comparison.with_model_spread of its STARTS starts)."""
     groups = observed.groups
     base_model = model_factory(timestep=timestep)
     base = simulate_groups([(base_model, groups)], observed.duration_s,
@@ -1108,6 +1112,8 @@ def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorC
     comparison = Comparison(observed)
     base_starts = over_starts(base, base_model, groups, list(range(len(groups))),
                               observed.duration_s, chain, backend, progress, cache)
+    if model_spread:
+        comparison = comparison.with_model_spread(base_starts)
     group_errors = base_group_errors(comparison, base_starts)
     train, held = split(observed, group_errors)
     return BaseAndSplit(observed, comparison, base, base_starts, group_errors, train, held)
@@ -1116,7 +1122,8 @@ def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorC
 def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *,
                       timestep: float | None = None, chain: SensorChain = SensorChain(),
                       backend, progress: Callable[[int], None] | None = None, cache=None,
-                      signals: bool = True, search_starts: int = SEARCH_STARTS) -> Diagnosis:
+                      signals: bool = True, search_starts: int = SEARCH_STARTS,
+                      model_spread: bool = False) -> Diagnosis:
     """Simulates the base model on every command of the measured runs, and, if it
     disagrees with them, fits every candidate cause on the training runs and decides.
 
@@ -1125,7 +1132,10 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     are the same either way.  cache: a simulation.cache.SimulationCache (finished
     simulations are kept and reused).  signals: simulate the base model and the fit a
     report shows for their time series (not only their features).  search_starts: the
-    starts a fit's training error is the median over (SEARCH_STARTS).
+    starts a fit's training error is the median over (SEARCH_STARTS).  model_spread:
+    every error is read against the trials' spread and the base model's own
+    start-to-start spread together (Comparison.with_model_spread; default: the trials'
+    alone).
     """
     if not 1 <= search_starts <= STARTS:
         raise ValueError(f"search_starts={search_starts}: must be 1 to {STARTS}")
@@ -1135,7 +1145,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     names = candidates or sorted(cause_registry.CAUSES)
     observed, comparison, base, base_starts, group_errors, train, held = base_and_split(
         observed, timestep=timestep, chain=chain, backend=backend, progress=progress,
-        cache=cache, signals=signals)
+        cache=cache, signals=signals, model_spread=model_spread)
     base_error = median_error(comparison, base_starts, all_runs)
     base_held = median_error(comparison, base_starts, held, train)
     # as a fit's train_error: the median over the search's starts

@@ -72,7 +72,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
              figures: bool = True, backend=None, cache_dir=None,
-             search_starts: int = SEARCH_STARTS) -> dict:
+             search_starts: int = SEARCH_STARTS, model_spread: bool = False) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
     extended model to out_dir when given.  Returns the diagnosis.
 
@@ -87,6 +87,9 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
 
     search_starts: the simulated starts a fit's training error is the median over
     (diagnosis.fit.SEARCH_STARTS; the search costs as many times the simulations).
+
+    model_spread: read every error against the trials' spread and the base model's own
+    start-to-start spread together (diagnosis.comparison.Comparison.with_model_spread).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -106,7 +109,8 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
         # it is always simulated (a twentieth of a diagnosis)
         found = diagnose_observed(observed, names, timestep=timestep, chain=chain,
                                   backend=backend, progress=bar, cache=stored,
-                                  signals=out_dir is not None, search_starts=search_starts)
+                                  signals=out_dir is not None, search_starts=search_starts,
+                                  model_spread=model_spread)
     finally:
         bar.close()
     summary = found.summary()
@@ -116,6 +120,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
                                "cache": str(stored.root)} if stored else None)
     summary["platform"] = numeric_platform()
     summary["search_starts"] = search_starts
+    summary["model_spread"] = model_spread
     summary["wall_time_s"] = round(time.time() - started, 1)
     if out_dir is not None:
         write_diagnosis(Path(out_dir), summary, found, timestep, figures)
