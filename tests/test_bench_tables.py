@@ -157,6 +157,16 @@ def test_a_results_file_holds_rows_of_one_step_and_one_scale(tmp_path, capsys, o
     assert str(results) in err and named in err
 
 
+def test_the_model_spread_survey_names_a_draw_it_has_no_row_of(tmp_path, capsys):
+    import model_spread_survey
+    with pytest.raises(SystemExit) as stopped:
+        model_spread_survey.main(["draw-1211", "draw-0", "--out", str(tmp_path),
+                                  "--rows", str(tmp_path / "rows.jsonl")])
+    assert stopped.value.code == 2
+    assert "no row of draw-0" in capsys.readouterr().err
+    assert not (tmp_path / "rows.jsonl").exists()  # refused before any draw ran
+
+
 def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():
     import regime_map
     # three bands over 4 starts: two regimes (1e-5 and 1e-7), one steady band, one at
