@@ -230,6 +230,10 @@ def test_the_models_own_start_spread_widens_the_scale_at_its_command():
     assert wider.noise_error() < comp.noise_error()
     with pytest.raises(ValueError, match="2 starts or more"):
         comp.with_model_spread(starts[:1])
+    # a no-discrepancy reason says what the error was read against
+    _, _, reason = diagnosis.verdict(1.5, 1.4, [], 0.8, base_train=1.5, n_train=6,
+                                     scale="the trials' and the base model's spread")
+    assert reason.endswith("(RMS z against the trials' and the base model's spread)")
 
 
 def test_split_holds_out_the_middle_command():

@@ -796,12 +796,13 @@ def preferred_in_training(best, others: list, n_train: int):
 
 
 def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, *,
-            base_train: float, n_train: int, held_out_new_commands: bool = True
-            ) -> tuple[str, Fit | None, str]:
+            base_train: float, n_train: int, held_out_new_commands: bool = True,
+            scale: str = "the trials' spread") -> tuple[str, Fit | None, str]:
     """(verdict, named fit or None, reason); noise: Comparison.noise_error(); base_train:
     the base model's training error from start 0 (as Fit.train_error), n_train the
     training runs; held_out_new_commands: the held-out runs are of commands no training
-    run has (split's way with three commands or more).
+    run has (split's way with three commands or more); scale: what the errors are read
+    against, as the reason says it.
 
     no-discrepancy: the base model is within Z_CONSISTENT.  Otherwise, when the held-out
     runs show a discrepancy of their own (base_held above Z_CONSISTENT) and are of
@@ -819,7 +820,7 @@ def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, 
     if base_error <= Z_CONSISTENT:
         return "no-discrepancy", None, (
             f"the base model's error {base_error:.2f} is within {Z_CONSISTENT} (RMS z against "
-            "the trials' spread)")
+            f"{scale})")
     if not fits:
         return "unexplained", None, "no candidate cause applies to this model"
     best = fits[0]
@@ -1180,7 +1181,9 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     pair = fit_pair(fits[0], fits[1], held) if len(fits) > 1 else None
     result, named, reason = verdict(base_error, base_held, fits, noise, base_train=base_train,
                                     n_train=len(train),
-                                    held_out_new_commands=holds_out_commands(observed))
+                                    held_out_new_commands=holds_out_commands(observed),
+                                    scale=("the trials' and the base model's start-to-start "
+                                           "spread" if model_spread else "the trials' spread"))
     if pair is not None and pair["better_than_best"] and result != "explained":
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
                    f"{pair['held_out_error']:.2f}): two effects may be at work")
