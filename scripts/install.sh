@@ -58,7 +58,8 @@ is_venv() {
     "$VENV/bin/python" -c 'import sys; sys.exit(sys.prefix == sys.base_prefix)' 2>/dev/null
 }
 if ! is_venv; then
-  [[ -e "$VENV" ]] && echo "install: $VENV is not a working virtual environment; making it again" >&2
+  [[ -e "$VENV" ]] &&
+    echo "install: $VENV is not a working virtual environment; making it again" >&2
   "$PYTHON" -m venv --clear "$VENV"
 fi
 if ! is_venv; then

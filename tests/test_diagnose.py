@@ -30,7 +30,8 @@ from skidsteer import diagnosis
 from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Comparison, Observed,
-                                            Simulated, model_factory, simulate_group, wheel_rates_hz)
+                                            Simulated, model_factory, simulate_group,
+                                            wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
 from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
                                      PROFILE_MOVES, REFINE_STEPS, STARTS, _interval,
@@ -230,6 +231,9 @@ def test_the_models_own_start_spread_widens_the_scale_at_its_command():
     assert wider.noise_error() < comp.noise_error()
     with pytest.raises(ValueError, match="2 starts or more"):
         comp.with_model_spread(starts[:1])
+    # the scale's name, as the gain's metric and the verdict's reason say it
+    assert comp.scale_label == "the trials' spread"
+    assert wider.scale_label == "the trials' and the base model's start-to-start spread"
     # a no-discrepancy reason says what the error was read against
     _, _, reason = diagnosis.verdict(1.5, 1.4, [], 0.8, base_train=1.5, n_train=6,
                                      scale="the trials' and the base model's spread")

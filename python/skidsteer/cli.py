@@ -316,9 +316,9 @@ def _print_verdict(result: dict, *more: str) -> None:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     if is_imu_folder(args.dataset):
         if args.search_starts != SEARCH_STARTS or args.model_spread:
-            print(f"skidsteer: --search-starts and --model-spread apply to a dataset's fits; "
-                  f"{args.dataset} "
-                  "holds real recordings, whose diagnosis fits no causes", file=sys.stderr)
+            print("skidsteer: --search-starts and --model-spread apply to a dataset's fits; "
+                  f"{args.dataset} holds real recordings, whose diagnosis fits no causes",
+                  file=sys.stderr)
             return 2
         return _diagnose_recordings(args)
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,

@@ -435,16 +435,14 @@ def main(argv=None) -> int:
     done = newest_rows(results)
     rerun = set(args.rerun)
     if not args.report:
-        other_steps = {r.get("timestep_s") for r in done.values()} - {args.timestep}
-        if other_steps:
-            ap.error(f"{results} holds rows simulated at step(s) "
-                     f"{sorted(map(str, other_steps))}, not --timestep {args.timestep}: "
-                     "give another --results")
-        other_spread = {bool(r.get("model_spread")) for r in done.values()} - {
-            args.model_spread}
-        if other_spread:
-            ap.error(f"{results} holds rows diagnosed with model_spread "
-                     f"{sorted(other_spread)}, not {args.model_spread}: give another --results")
+        # a results file holds rows of one step and one scale (rows from before a field
+        # was recorded read as the default: None, False)
+        for field, wanted, read in (("timestep_s", args.timestep, lambda v: v),
+                                    ("model_spread", args.model_spread, bool)):
+            other = {read(r.get(field)) for r in done.values()} - {wanted}
+            if other:
+                ap.error(f"{results} holds rows with {field} {sorted(map(str, other))}, not "
+                         f"{wanted}: give another --results")
         for case in plan(args.datasets, args.first_seed):
             if (case["case"] in done and case["case"] not in rerun) or (
                     args.only and case["case"] not in args.only):

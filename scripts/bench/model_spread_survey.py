@@ -62,10 +62,10 @@ def survey_row(row: dict, out: Path, threads: int) -> dict:
 
 def line(r: dict) -> str:
     def cell(e):
-        return f"{e['base_error']:.2f}{' (no-discrepancy)' if e['base_error'] <= Z_CONSISTENT else ''}" \
-               f", held-out {e['base_held']:.2f}"
-    return f"| {r['case']} | {r['effect'] or 'null'} | {r['outcome']} | {cell(r['trials'])} | " \
-           f"{cell(r['model'])} |"
+        quiet = " (no-discrepancy)" if e["base_error"] <= Z_CONSISTENT else ""
+        return f"{e['base_error']:.2f}{quiet}, held-out {e['base_held']:.2f}"
+    return (f"| {r['case']} | {r['effect'] or 'null'} | {r['outcome']} | "
+            f"{cell(r['trials'])} | {cell(r['model'])} |")
 
 
 def main(argv=None) -> int:

@@ -326,9 +326,16 @@ class Comparison:
             self.scale = np.sqrt(self.scale ** 2 + np.nan_to_num(self.model_spread) ** 2)
         self.measured = self.observed.log_features()
 
-    def _run_scale(self, runs: np.ndarray) -> np.ndarray:
-        """The scale each of `runs` is read in: per feature, or (len(runs), n_features)."""
-        return self.scale if self.scale.ndim == 1 else self.scale[self.observed.run_group[runs]]
+    @property
+    def scale_label(self) -> str:
+        """What the scale is, in the words a verdict's reason and the gain's metric use."""
+        return ("the trials' spread" if self.model_spread is None
+                else "the trials' and the base model's start-to-start spread")
+
+    def _scale_at(self, groups):
+        """The scale of the commands `groups` (an index or an array of them): the per-
+        feature scale itself, or its rows (with model_spread)."""
+        return self.scale if self.scale.ndim == 1 else self.scale[groups]
 
     def start_spread(self, starts: Sequence["Simulated"]) -> np.ndarray:
         """(n_groups, n_features): the model's start-to-start spread at each command, the
@@ -383,7 +390,7 @@ class Comparison:
         diff = sim - self.measured
         bias_runs = runs if bias_runs is None else bias_runs
         diff[:, -1] -= np.median(diff[bias_runs, -1])
-        return diff[runs] / self._run_scale(runs)
+        return diff[runs] / self._scale_at(self.observed.run_group[runs])
 
     def error(self, sim_features: np.ndarray, runs: np.ndarray,
               bias_runs: np.ndarray | None = None) -> float:
@@ -415,8 +422,7 @@ class Comparison:
                             "measured": float(np.nanmean(self.measured[rows, f])),
                             "simulated": float(sim[gi, f]),
                             # the scale (with_model_spread: the model's spread too)
-                            "trial_spread": float(self.scale[f] if self.scale.ndim == 1
-                                                  else self.scale[gi, f]),
+                            "trial_spread": float(self._scale_at(gi)[f]),
                             "z": float(zbar[f])})
         out.sort(key=lambda d: -abs(d["z"]))
         return out[:limit]

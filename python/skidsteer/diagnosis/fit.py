@@ -945,10 +945,10 @@ def simulations_planned(names: list[str], observed: Observed,
     refine_parameters' passes and profile (twice with
     a mirror), each on the training commands; the held-out commands at each
     fit's end (main and refined); the pair (of two causes or more) on every command;
-    and STARTS - 1 more starts of the base model's every command and of each end's and the pair's held-out ones,
-    and STARTS - search_starts more of each cause's final fit's training commands (the
-    starts the search did not run: with_start_scatter); the search's (on the training
-    commands) once per search start."""
+    and STARTS - 1 more starts of the base model's every command and of each end's and
+    the pair's held-out ones, and STARTS - search_starts more of each cause's final fit's
+    training commands (the starts the search did not run: with_start_scatter); the
+    search's (on the training commands) once per search start."""
     def refining(cause):  # refine_parameters: the passes, the final profile
         n = 1 + len(cause.held)
         search = len(REFINE_STEPS) * (2 * n + 1) + 2 * n * (1 + PROFILE_MOVES)
@@ -1039,9 +1039,8 @@ class Diagnosis:
                         for f in self.fits],
             "gain": {
                 "metric": "held-out RMS z-score of the spectral features (start-up and steady "
-                          "band powers per axis, centripetal mean) against the trials' spread"
-                          + (" and the base model's start-to-start spread together"
-                             if self.comparison.model_spread is not None else "") + ", "
+                          "band powers per axis, centripetal mean) against "
+                          f"{self.comparison.scale_label}, "
                           f"the median over {STARTS} simulated starts; "
                           "relative_reduction is the fraction of its square in excess of the "
                           "trial noise (noise_error^2) that the extended model removes",
@@ -1182,8 +1181,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     result, named, reason = verdict(base_error, base_held, fits, noise, base_train=base_train,
                                     n_train=len(train),
                                     held_out_new_commands=holds_out_commands(observed),
-                                    scale=("the trials' and the base model's start-to-start "
-                                           "spread" if model_spread else "the trials' spread"))
+                                    scale=comparison.scale_label)
     if pair is not None and pair["better_than_best"] and result != "explained":
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
                    f"{pair['held_out_error']:.2f}): two effects may be at work")
