@@ -276,6 +276,22 @@ def test_diagnose_runs_on_the_real_excerpt_from_the_command_line(tmp_path, capsy
     assert "verdict: unexplained" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("option", [["--model-spread"], ["--search-starts", "3"]])
+def test_options_of_a_datasets_fits_are_refused_on_real_recordings(tmp_path, capsys, option):
+    # a diagnosis of real recordings fits no causes: an option that shapes those fits
+    # would be silently ignored, so it is refused before anything is read or written
+    data = tmp_path / "SANDY_LOAM"
+    shutil.copytree(EXCERPT / "SANDY_LOAM", data)
+    out = tmp_path / "out"
+    assert main(["diagnose", str(data), "--model", "husky_a200", "--out", str(out),
+                 "--no-progress", *option]) == 2
+    err = capsys.readouterr().err
+    assert " ".join(option) in err and str(data) in err and "real recordings" in err
+    other = ({"--model-spread", "--search-starts"} - {option[0]}).pop()
+    assert other not in err  # the option given is named, not every one that would be
+    assert not out.exists()
+
+
 def test_segments_that_scatter_like_a_stuck_robot_decide_nothing():
     # SNOW in BorealTC: in some segments the robot turns, in others it is stuck (chi 2
     # to 30); the tolerance that scatter gives would call anything "no discrepancy"

@@ -315,8 +315,12 @@ def _print_verdict(result: dict, *more: str) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     if is_imu_folder(args.dataset):
-        if args.search_starts != SEARCH_STARTS or args.model_spread:
-            print("skidsteer: --search-starts and --model-spread apply to a dataset's fits; "
+        given = ([f"--search-starts {args.search_starts}"]
+                 if args.search_starts != SEARCH_STARTS else []) + (
+                     ["--model-spread"] if args.model_spread else [])
+        if given:
+            print(f"skidsteer: {' and '.join(given)}: "
+                  f"{'apply' if len(given) > 1 else 'applies'} to a dataset's fits; "
                   f"{args.dataset} holds real recordings, whose diagnosis fits no causes",
                   file=sys.stderr)
             return 2
