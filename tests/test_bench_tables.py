@@ -197,3 +197,21 @@ def test_extra_command_needs_a_change_and_refuses_a_command_the_draw_has(tmp_pat
     with pytest.raises(SystemExit):
         extra_command.main(["999", "--timestep", "5e-5", "--out", str(tmp_path)])
     assert "no row draw-999" in capsys.readouterr().err
+
+
+def test_diagnosis_stages_names_the_fit_functions_and_refuses_a_used_cache(tmp_path, capsys):
+    import traceback
+
+    import diagnosis_stages
+
+    fit_py = str(REPO / "python" / "skidsteer" / "diagnosis" / "fit.py")
+    stack = [traceback.FrameSummary(str(REPO / "python" / "skidsteer" / "cli.py"), 1, "main"),
+             *(traceback.FrameSummary(fit_py, 1, name) for name in
+               ("diagnose_observed", "fit_cause", "grid_search", "__call__", "_simulate"))]
+    assert diagnosis_stages.stage_of(stack) == "_simulate < __call__ < grid_search"
+    assert diagnosis_stages.stage_of(stack[:1]) == "(outside diagnosis.fit)"
+    # a cache already there would hand back stored simulations uncounted
+    (tmp_path / "cache").mkdir()
+    with pytest.raises(SystemExit):
+        diagnosis_stages.main(["data/sample", "--out", str(tmp_path)])
+    assert "cache" in capsys.readouterr().err

@@ -18,6 +18,11 @@ same time step with the same commands in one process:
           robot floats, no contact at all.  The multibody + motors + sensors
           baseline, so that (plugin - bare) and (native - bare) are the cost of
           each wheel/floor model alone.
+  no_collision, no_belts, no_constraints  the shipped robot with MuJoCo's
+          collision pass off, its two belt couplings off, or both (then no
+          constraint row is left and MuJoCo skips its solver): where the
+          shipped robot's step goes.  Only no_collision is the shipped robot
+          (its states are compared with plugin's).
 
 Each variant is settled for 2 s (untimed), then a swivel at --omega deg/s
 (firmware ramp, simulation.DriveGeometry.ramp) of --duration s is stepped by
@@ -94,8 +99,32 @@ def bare_edit(spec: mujoco.MjSpec) -> None:
     spec.option.gravity = [0.0, 0.0, 0.0]
 
 
+def no_collision_edit(spec: mujoco.MjSpec) -> None:
+    """The shipped robot with MuJoCo's collision pass off (mjDSBL_CONTACT): what looking
+    for chassis/floor contacts costs.  The plugin's wheel forces do not come from it, and
+    on a flat floor nothing else touches, so the run is the shipped robot's bit for bit
+    (behaviour's same_as_plugin says whether it was); a tipped robot would fall through."""
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+
+
+def no_belts_edit(spec: mujoco.MjSpec) -> None:
+    """The shipped robot without its two belt couplings (mjDSBL_EQUALITY): what their
+    constraint rows cost.  NOT the shipped robot (diagnostic only): each side's servo
+    drives the mean of two wheels that are then free to turn apart."""
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_EQUALITY
+
+
+def no_constraints_edit(spec: mujoco.MjSpec) -> None:
+    """Both of the above: no constraint row at all, so MuJoCo skips its constraint
+    solver (diagnostic only, as no_belts)."""
+    spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
+                                 | mujoco.mjtDisableBit.mjDSBL_EQUALITY)
+
+
 VARIANTS = {"plugin": None, "plugin_implicit": None, "native": native_edit,
-            "native_armature": native_armature_edit, "bare": bare_edit}
+            "native_armature": native_armature_edit, "bare": bare_edit,
+            "no_collision": no_collision_edit, "no_belts": no_belts_edit,
+            "no_constraints": no_constraints_edit}
 TIRE = {"plugin_implicit": {"coupling": "implicit"}}  # tire attributes per variant
 
 
@@ -153,7 +182,10 @@ def run_timestep(timestep: float, args) -> dict:
         per_step = [t / nstep * 1e6 for t in v["times"]]
         rows[name] = {"us_per_step_min": min(per_step),
                       "us_per_step_median": statistics.median(per_step),
-                      "wall_s_per_rollout": v["times"], **behaviour(v)}
+                      "wall_s_per_rollout": v["times"], **behaviour(v),
+                      # every state of the last rollout equal to the shipped robot's
+                      "same_as_plugin": bool(np.array_equal(v["state"],
+                                                            variants["plugin"]["state"]))}
     ratio_min = rows["plugin"]["us_per_step_min"] / rows["native"]["us_per_step_min"]
     ratio_median = rows["plugin"]["us_per_step_median"] / rows["native"]["us_per_step_median"]
     implicit_ratio = (rows["plugin_implicit"]["us_per_step_median"]
@@ -180,6 +212,16 @@ def print_tables(results: list[dict], args) -> None:
             print(f"| {r['timestep_s']:g} | {name} | {row['us_per_step_min']:.2f} | {med:.2f} | "
                   f"{med / native:.2f} | {med - bare:+.2f} | {yaw} | "
                   f"{row['ay_std_m_s2']:.3f} | {z[0]:.4f}-{z[1]:.4f} |")
+    print("\nWhere the shipped robot's step goes (diagnostic variants: MuJoCo's collision "
+          "pass, the belts' constraint rows, both):")
+    print("\n| dt (s) | variant | x plugin (median) | states equal to plugin's |")
+    print("|---|---|---|---|")
+    for r in results:
+        shipped = r["rows"]["plugin"]["us_per_step_median"]
+        for name in ("no_collision", "no_belts", "no_constraints"):
+            row = r["rows"][name]
+            print(f"| {r['timestep_s']:g} | {name} | {row['us_per_step_median'] / shipped:.2f} "
+                  f"| {'yes' if row['same_as_plugin'] else 'no'} |")
     print("\n| dt (s) | plugin / native (min) | plugin / native (median) | "
           f"target <= {TARGET_RATIO} | implicit / explicit coupling (median) |")
     print("|---|---|---|---|---|")
