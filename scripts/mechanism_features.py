@@ -28,9 +28,13 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Callable
+
+import mujoco
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import belt_coupling_study  # noqa: E402  (the belts' rigid limit)
 import screen_mechanisms  # noqa: E402  (the screen's mechanisms and priors)
 from skidsteer.diagnosis import causes  # noqa: E402
 from skidsteer.diagnosis.causes.mast_compliance import (  # noqa: E402
@@ -59,6 +63,8 @@ class Candidate:
     name: str
     parts: tuple[screen_mechanisms.Mechanism, ...]
     parameters: str  # the parameters and their intervals or provenance, as printed
+    # an edit of the robot itself on every build, beside the parts (e.g. rigid belts)
+    robot_edit: Callable[[mujoco.MjSpec], None] | None = None
 
     def edits(self) -> dict:
         """build -> its MjSpec edit, None where no part applies (a frame on the bare
@@ -75,6 +81,8 @@ class Candidate:
                 except causes.NotApplicable:
                     continue
                 applicable.append(edit)
+            if self.robot_edit is not None:
+                applicable.append(self.robot_edit)
             out[build] = screen_mechanisms._compose(*applicable) if applicable else None
         return out
 
@@ -120,6 +128,13 @@ def candidates() -> list[Candidate]:
     for name in ("ground_roughness", "wheel_eccentricity"):
         out.append(Candidate(f"calibrated_frame+{name}", (frame, forced[name]),
                              f"the calibrated frame and {name} at its prior's middle"))
+    # not a mechanism but the base model with its belt couplings at the rigid limit the
+    # thesis assumes (Assumption 4; scripts/belt_coupling_study.py)
+    out.append(Candidate("rigid_belts", (mechanism("base", "base"),),
+                         "the base model with each side's axles coupled rigidly "
+                         f"(solref {belt_coupling_study.RIGID_SOLREF[0]:g} s, impedance "
+                         f"{belt_coupling_study.RIGID_SOLIMP[0]:g}; shipped: 0.005 s, "
+                         "MuJoCo's default impedance)", belt_coupling_study.rigid_belts))
     return out
 
 

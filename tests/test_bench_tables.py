@@ -8,6 +8,7 @@ import json
 import re
 import sys
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -215,3 +216,20 @@ def test_diagnosis_stages_names_the_fit_functions_and_refuses_a_used_cache(tmp_p
     with pytest.raises(SystemExit):
         diagnosis_stages.main(["data/sample", "--out", str(tmp_path)])
     assert "cache" in capsys.readouterr().err
+
+
+def test_rigid_belts_stiffen_the_belt_couplings_only():
+    import belt_coupling_study as study
+    from skidsteer.robot import load_model
+
+    shipped = load_model("extended", "concrete")
+    rigid = load_model("extended", "concrete", edit=study.rigid_belts)
+    joints = shipped.eq_type == mujoco.mjtEq.mjEQ_JOINT
+    assert joints.sum() == 2  # a belt per side (models/pioneer3at/parts/drive.xml)
+    np.testing.assert_array_equal(rigid.eq_solref[joints],
+                                  [study.RIGID_SOLREF] * int(joints.sum()))
+    np.testing.assert_array_equal(rigid.eq_solimp[joints],
+                                  [study.RIGID_SOLIMP] * int(joints.sum()))
+    # nothing else of the model moves
+    np.testing.assert_array_equal(rigid.body_mass, shipped.body_mass)
+    assert rigid.opt.timestep == shipped.opt.timestep

@@ -22,6 +22,7 @@ import argparse
 import json
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -60,13 +61,14 @@ def band_spread(power: np.ndarray, bands: list[str]) -> dict:
 
 
 def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: int,
-           band: str | None = None) -> dict:
-    """band_spread of the base model's steady bands over `starts` starts of one command."""
+           band: str | None = None, edit=None) -> dict:
+    """band_spread of the base model's steady bands over `starts` starts of one command
+    (edit: an MjSpec edit of the model, e.g. belt_coupling_study.rigid_belts)."""
     names = list(comparison_feature_names())
     bands = steady_bands()
     steady = [names.index(n) for n in bands]
     group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
-    sims = simulate_groups([(model_factory(timestep=step_s), [group])] * starts, 20.0,
+    sims = simulate_groups([(model_factory(edit, timestep=step_s), [group])] * starts, 20.0,
                            backend=LocalBackend(threads), starts=list(range(starts)),
                            signals=False)
     power = np.array([s.features[0][steady] for s in sims])
@@ -87,7 +89,13 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--band", help="also print this steady band's log10 power from every "
                     "start (a feature name, e.g. steady_ay_9-12.5Hz)")
+    ap.add_argument("--rigid-belts", action="store_true", help="the belt couplings at their "
+                    "rigid limit (scripts/belt_coupling_study.py), not the shipped soft ones")
     args = ap.parse_args(argv)
+    edit = None
+    if args.rigid_belts:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from belt_coupling_study import rigid_belts as edit
     if args.starts < 2:
         ap.error(f"--starts {args.starts}: a spread needs at least 2 starts")
     if args.band is not None and args.band not in steady_bands():
@@ -96,8 +104,9 @@ def main(argv=None) -> int:
     for step_s in args.steps:
         for floor in args.floors:
             for omega in args.rates:
-                print(json.dumps(spread(step_s, floor, float(omega), args.starts, args.threads,
-                                        args.band)), flush=True)
+                row = spread(step_s, floor, float(omega), args.starts, args.threads,
+                             args.band, edit)
+                print(json.dumps({**row, "belts": "rigid" if edit else "shipped"}), flush=True)
     return 0
 
 
