@@ -16,7 +16,8 @@ starts and their range.
     python scripts/belt_coupling_study.py [--timesteps 1e-4 5e-5 2.5e-5]
         [--omegas 15 30 60] [--floors concrete carpet] [--starts 2] [--json FILE]
 
-A 20 s run costs ~1 s of a core at 1e-4 s and 4x that at 2.5e-5 s.
+A 20 s run costs ~2 s of a core at 1e-4 s and 4x that at 2.5e-5 s (the default table,
+72 runs, took ~5 min here).
 """
 
 from __future__ import annotations
