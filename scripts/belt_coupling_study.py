@@ -8,9 +8,9 @@ whose time constant is a numerical choice ("kept above 2 time steps"); the belt'
 elasticity is the tire plugin's belt_stiffness, in series with the tire (eq. 4.14).
 This study asks whether that choice is physics-neutral: for each coupling, step,
 floor and command, the extended robot swivels from --starts starts (diagnose's
-start_state: the robot at rest, then repeat-trial starts), logged through the
-default sensor chain, and the steady a_y band powers that diagnose compares
-(features.comparison_features) are printed as log10 (m/s^2)^2, the median over the
+start_state: the robot at rest, then repeat-trial starts), simulated and
+reduced as diagnose does a command (comparison.simulate_groups), and the steady a_y
+band powers that diagnose compares are printed as log10 (m/s^2)^2, the median over the
 starts and their range.
 
     python scripts/belt_coupling_study.py [--timesteps 1e-4 5e-5 2.5e-5]
@@ -25,16 +25,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from concurrent.futures import ThreadPoolExecutor
 
 import mujoco
 import numpy as np
 
-from skidsteer.diagnosis.comparison import start_state
-from skidsteer.features.extract import comparison_feature_names, comparison_features
-from skidsteer.robot import Setup, load_model
-from skidsteer.simulation.run import run_from_settled
-from skidsteer.simulation.sensor_chain import SensorChain
+from skidsteer.data.dataset import Group
+from skidsteer.diagnosis.comparison import model_factory, simulate_groups
+from skidsteer.features.extract import comparison_feature_names
+from skidsteer.robot import Setup
+from skidsteer.simulation.backends import LocalBackend
 
 # The rigid limit: the shortest time constant MuJoCo takes at the study's largest step
 # (2 steps of 1e-4 s) and an impedance of 0.99 (MuJoCo's default, 0.9-0.95, leaves the
@@ -58,13 +57,16 @@ def rigid_belts(spec: mujoco.MjSpec) -> None:
 COUPLINGS = {"shipped": None, "rigid": rigid_belts}
 
 
-def band_powers(task) -> np.ndarray:
-    m, state, omega = task
-    run = run_from_settled(m, state, 0.0, omega, DURATION_S)
-    time_s, accel = SensorChain().log(run)
-    features = comparison_features(time_s, accel)
+def band_powers(floor: str, omega_deg_s: float, timestep_s: float, edit, starts: int,
+                backend) -> np.ndarray:
+    """(starts, BANDS): log10 of the steady band powers of one swivel from diagnose's
+    starts 0..starts-1, as diagnose simulates and reduces a command."""
+    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
+    sims = simulate_groups([(model_factory(edit, timestep=timestep_s), [group])] * starts,
+                           DURATION_S, backend=backend, starts=list(range(starts)),
+                           signals=False)
     names = comparison_feature_names()
-    return np.log10([features[names.index(b)] for b in BANDS])
+    return np.log10([[s.features[0][names.index(b)] for b in BANDS] for s in sims])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -79,23 +81,20 @@ def main(argv: list[str] | None = None) -> int:
     print("| floor | deg/s | coupling | step (s) | "
           + " | ".join(b.replace("steady_", "") for b in BANDS) + " |")
     print("|---|---|---|---|" + "---|" * len(BANDS))
-    with ThreadPoolExecutor(2) as pool:
-        for floor in args.floors:
-            for omega in args.omegas:
-                for name, edit in COUPLINGS.items():
-                    for dt in args.timesteps:
-                        m = load_model(Setup(build="extended", floor=floor), timestep=dt,
-                                       edit=edit)
-                        tasks = [(m, start_state(m, k), omega) for k in range(args.starts)]
-                        powers = np.array(list(pool.map(band_powers, tasks)))
-                        med = np.median(powers, axis=0)
-                        cells = [f"{v:.2f} ({lo:.2f}..{hi:.2f})" for v, lo, hi in
-                                 zip(med, powers.min(0), powers.max(0))]
-                        print(f"| {floor} | {omega:g} | {name} | {dt:g} | "
-                              + " | ".join(cells) + " |", flush=True)
-                        rows.append({"floor": floor, "omega_deg_s": omega, "coupling": name,
-                                     "timestep_s": dt, "bands": list(BANDS),
-                                     "log10_power_per_start": powers.tolist()})
+    backend = LocalBackend(2)
+    for floor in args.floors:
+        for omega in args.omegas:
+            for name, edit in COUPLINGS.items():
+                for dt in args.timesteps:
+                    powers = band_powers(floor, omega, dt, edit, args.starts, backend)
+                    med = np.median(powers, axis=0)
+                    cells = [f"{v:.2f} ({lo:.2f}..{hi:.2f})" for v, lo, hi in
+                             zip(med, powers.min(0), powers.max(0))]
+                    print(f"| {floor} | {omega:g} | {name} | {dt:g} | "
+                          + " | ".join(cells) + " |", flush=True)
+                    rows.append({"floor": floor, "omega_deg_s": omega, "coupling": name,
+                                 "timestep_s": dt, "bands": list(BANDS),
+                                 "log10_power_per_start": powers.tolist()})
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)

@@ -99,32 +99,27 @@ def bare_edit(spec: mujoco.MjSpec) -> None:
     spec.option.gravity = [0.0, 0.0, 0.0]
 
 
-def no_collision_edit(spec: mujoco.MjSpec) -> None:
-    """The shipped robot with MuJoCo's collision pass off (mjDSBL_CONTACT): what looking
-    for chassis/floor contacts costs.  The plugin's wheel forces do not come from it, and
-    on a flat floor nothing else touches, so the run is the shipped robot's bit for bit
-    (behaviour's same_as_plugin says whether it was); a tipped robot would fall through."""
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+def disabled(*flags: mujoco.mjtDisableBit):
+    """The shipped robot with MuJoCo's `flags` off (a diagnostic of where its step goes):
+    mjDSBL_CONTACT, the collision pass (the plugin's wheel forces do not come from it, and
+    on a flat floor nothing else touches, so the run is the shipped robot's bit for bit,
+    behaviour's same_as_plugin says whether it was; a tipped robot would fall through);
+    mjDSBL_EQUALITY, the two belt couplings (NOT the shipped robot: each side's servo then
+    drives the mean of two wheels free to turn apart); both, no constraint row at all,
+    so MuJoCo skips its constraint solver."""
+    def edit(spec: mujoco.MjSpec) -> None:
+        for flag in flags:
+            spec.option.disableflags |= flag
+    return edit
 
 
-def no_belts_edit(spec: mujoco.MjSpec) -> None:
-    """The shipped robot without its two belt couplings (mjDSBL_EQUALITY): what their
-    constraint rows cost.  NOT the shipped robot (diagnostic only): each side's servo
-    drives the mean of two wheels that are then free to turn apart."""
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_EQUALITY
-
-
-def no_constraints_edit(spec: mujoco.MjSpec) -> None:
-    """Both of the above: no constraint row at all, so MuJoCo skips its constraint
-    solver (diagnostic only, as no_belts)."""
-    spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
-                                 | mujoco.mjtDisableBit.mjDSBL_EQUALITY)
+CONTACT, EQUALITY = mujoco.mjtDisableBit.mjDSBL_CONTACT, mujoco.mjtDisableBit.mjDSBL_EQUALITY
 
 
 VARIANTS = {"plugin": None, "plugin_implicit": None, "native": native_edit,
             "native_armature": native_armature_edit, "bare": bare_edit,
-            "no_collision": no_collision_edit, "no_belts": no_belts_edit,
-            "no_constraints": no_constraints_edit}
+            "no_collision": disabled(CONTACT), "no_belts": disabled(EQUALITY),
+            "no_constraints": disabled(CONTACT, EQUALITY)}
 TIRE = {"plugin_implicit": {"coupling": "implicit"}}  # tire attributes per variant
 
 

@@ -307,6 +307,9 @@ def simulate_group(m: mujoco.MjModel, settled: np.ndarray, v_mps: float, omega_d
 
 # ------------------------------------------------------------------ comparison
 
+TRIALS_SCALE = "the trials' spread"  # Comparison.scale_label without the model's spread
+
+
 @dataclasses.dataclass
 class Comparison:
     """Scores simulations against one set of measurements, in units of the trials' spread
@@ -329,7 +332,7 @@ class Comparison:
     @property
     def scale_label(self) -> str:
         """What the scale is, in the words a verdict's reason and the gain's metric use."""
-        return ("the trials' spread" if self.model_spread is None
+        return (TRIALS_SCALE if self.model_spread is None
                 else "the trials' and the base model's start-to-start spread")
 
     def _scale_at(self, groups):

@@ -46,8 +46,8 @@ from scipy import optimize
 
 from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes as cause_registry
-from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, model_factory,
-                                            require_spread, simulate_groups)
+from skidsteer.diagnosis.comparison import (TRIALS_SCALE, Comparison, Observed, Simulated,
+                                            model_factory, require_spread, simulate_groups)
 from skidsteer.simulation.sensor_chain import SensorChain
 
 GRID_POINTS = 5  # across the prior, at the centres of 5 equal slices (log or linear)
@@ -797,7 +797,7 @@ def preferred_in_training(best, others: list, n_train: int):
 
 def verdict(base_error: float, base_held: float, fits: list[Fit], noise: float, *,
             base_train: float, n_train: int, held_out_new_commands: bool = True,
-            scale: str = "the trials' spread") -> tuple[str, Fit | None, str]:
+            scale: str = TRIALS_SCALE) -> tuple[str, Fit | None, str]:
     """(verdict, named fit or None, reason); noise: Comparison.noise_error(); base_train:
     the base model's training error from start 0 (as Fit.train_error), n_train the
     training runs; held_out_new_commands: the held-out runs are of commands no training
