@@ -82,6 +82,34 @@ def test_frame_causes_do_not_apply_to_the_bare_platform(name):
         load_model("platform", "concrete", edit=cause.edit(cause.parameters()))
 
 
+def test_a_rough_floor_is_not_fitted_to_runs_that_drive_off_it():
+    from skidsteer.diagnosis.fit import fit_cause
+    from skidsteer.simulation.run import run_batch
+
+    rough = causes.get("ground_roughness")
+    # the premise: past the heightfield's edge the wheels find no floor and carry no
+    # load (before Cause.reach_m such runs were scored as data); 12 s at 0.15 m/s is
+    # 1.8 m from the start, at 0.05 m/s 0.6 m, inside the reach
+    m = load_model("extended", "concrete", edit=rough.edit(rough.parameters()))
+    off, on = run_batch([m, m], [(0.15, 0.0), (0.05, 0.0)], 12.0)
+    assert np.all(off.tire_forces[-1, :, 0] == 0)
+    assert np.all(on.tire_forces[-1, :, 0] > 0)
+    # turning in place, a slow straight run and a tight arc stay on it; a 20 s
+    # straight run at 0.15 m/s (3 m) and a wide arc (2 v / omega = 1.15 m) do not
+    rough.check_reach([(0.0, 60.0), (0.05, 0.0), (0.1, 30.0)], 12.0)
+    for command, travel in (((0.15, 0.0), "3.00 m"), ((0.3, 30.0), "1.15 m")):
+        with pytest.raises(causes.NotApplicable, match=f"ground_roughness.*{travel}"):
+            rough.check_reach([(0.0, 30.0), command], 20.0)
+    # a diagnosis lists it as not applicable before simulating anything (no comparison,
+    # chain or backend is touched), and every other cause has no reach
+    straight = Group(0.15, 0.0, Setup(build="extended", floor="concrete"))
+    with pytest.raises(causes.NotApplicable, match="beyond the 0.75 m"):
+        fit_cause(rough, None, [straight], 20.0, np.arange(3), np.arange(0), None, None,
+                  None, None)
+    assert [c.name for c in causes.CAUSES.values() if c.reach_m is not None] == [
+        "ground_roughness"]
+
+
 def test_unknown_cause_and_parameter_are_named():
     with pytest.raises(ValueError, match="'nope'"):
         causes.get("nope")

@@ -499,7 +499,9 @@ def fit_cause(cause, comparison: Comparison, groups: list[Group], duration_s: fl
     other parameters at their priors' values (refine_fit then fits every parameter).
 
     stored: a SimulationCache; simulations found in it are not run again, so the
-    fit reads their features only (Fit.simulated may lack time series)."""
+    fit reads their features only (Fit.simulated may lack time series).  Raises
+    NotApplicable, before simulating, when a command drives beyond the cause's reach."""
+    cause.check_reach([(g.v_mps, g.omega_deg_s) for g in groups], duration_s)
     main = cause.main
     evaluate = _Evaluations(cause, comparison, groups, duration_s, train, timestep, chain,
                             backend, progress, stored, search_starts)

@@ -93,6 +93,10 @@ class Cause:
     # roll and pitch stiffnesses, a floor's correlation length); the search starts from
     # the best of them and the main fit (diagnosis.fit.fit_every_parameter)
     design: Callable[[], list[dict[str, float]]] | None = None
+    # how far (m) the robot's centre may move from its start with the cause's geometry
+    # still under every wheel (a rough floor is a finite heightfield); None: anywhere.
+    # A dataset whose commands drive farther is not fitted (check_reach)
+    reach_m: float | None = None
 
     @property
     def priors(self) -> dict[str, Parameter]:
@@ -125,6 +129,21 @@ class Cause:
             x -= length
         return float(self.main.from_unit(pieces[-1][1]))
 
+    def check_reach(self, commands, duration_s: float) -> None:
+        """Raises NotApplicable when one of the commands ((v_x m/s, omega_z deg/s) pairs)
+        drives the robot's centre beyond reach_m within duration_s: its simulations would
+        run off the cause's geometry (off a rough floor's edge the wheels find no floor
+        and the robot falls), and their features would be scored as if they were real."""
+        if self.reach_m is None:
+            return
+        for v_mps, omega_deg_s in commands:
+            travel = travel_m(v_mps, omega_deg_s, duration_s)
+            if travel > self.reach_m:
+                raise NotApplicable(
+                    f"{self.name}: the command v = {v_mps:g} m/s, omega = {omega_deg_s:g} "
+                    f"deg/s drives the robot {travel:.2f} m from its start in {duration_s:g} s, "
+                    f"beyond the {self.reach_m:g} m its geometry covers")
+
     def edit(self, params: Mapping[str, float], seed: int = 0):
         """An edit(spec) callable for models.load_model."""
         def edit(spec: mujoco.MjSpec) -> None:
@@ -145,6 +164,16 @@ def _discover() -> dict[str, Cause]:
             raise ValueError(f"two causes named {cause.name!r}")
         causes[cause.name] = cause
     return causes
+
+
+def travel_m(v_mps: float, omega_deg_s: float, duration_s: float) -> float:
+    """The farthest a robot's centre gets from its start under a constant command, its
+    start-up aside: |v| T on a straight run, at most the circle's diameter 2 |v| / |omega|
+    on an arc (0 turning in place)."""
+    straight = abs(v_mps) * duration_s
+    if omega_deg_s == 0:
+        return straight
+    return min(straight, 2 * abs(v_mps) / np.deg2rad(abs(omega_deg_s)))
 
 
 # ------------------------------------------------------------ helpers for causes

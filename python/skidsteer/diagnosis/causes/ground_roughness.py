@@ -23,6 +23,12 @@ CORRELATION_LENGTH = Parameter(
     source="assumed: undulations of a few tile or tread widths; the lower bound is the tire's "
            "contact patch (the plugin samples the floor at one point)")
 HALF_SIZE_M = 1.5  # the swivel stays within 0.3 m of the start; straight runs need the command
+# How far the robot's centre may go from its start and keep every wheel on the floor
+# (Cause.reach_m): the half side less the swivel's drift (0.3 m, above) and a wheel's
+# reach from the centre (assumed 0.45 m: the largest robot here, the Husky A200, has its
+# wheels 0.38 m from its centre).  Beyond it the wheels leave the heightfield, find no
+# floor and the robot falls (a straight run at 0.15 m/s did at about 9 s of 20).
+REACH_M = HALF_SIZE_M - 0.3 - 0.45
 GRID_PER_CORRELATION = 4  # samples per correlation length (at least)
 # The white noise is drawn once per seed on the grid the shortest correlation length
 # needs (the prior's low end / GRID_PER_CORRELATION = 5 mm) and filtered to each
@@ -100,4 +106,4 @@ def roughness_design() -> list[dict[str, float]]:
 
 CAUSE = Cause("ground_roughness", "the floor is uneven (a random heightfield)",
               HEIGHT_RMS, (CORRELATION_LENGTH,), apply, recovery_factor=1.5, null_value=2e-5,
-              random_realisation=True, design=roughness_design)
+              random_realisation=True, design=roughness_design, reach_m=REACH_M)
