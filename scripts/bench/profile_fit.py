@@ -34,17 +34,18 @@ from skidsteer.simulation.sensor_chain import SensorChain
 
 def profile(dataset: Path, cause_name: str, values: list[float], *, realisation: int = 0,
             held_values: dict[str, float] | None = None, threads: int = 2,
-            cache_dir: Path | None = None) -> dict:
+            cache_dir: Path | None = None, timestep: float | None = None) -> dict:
     """The base model's errors and, per value of the cause's main parameter, the training
     errors from each start and the held-out error (diagnose's split and medians); the
-    cause's other parameters at held_values, or their priors' values."""
+    cause's other parameters at held_values, or their priors' values; the models (base
+    and cause) at timestep (None: the model's own), the records as they are."""
     backend, chain = LocalBackend(threads), SensorChain()
     cache = SimulationCache(cache_dir) if cache_dir else None
     observed, comparison, _, base_starts, _, train, held = F.base_and_split(
-        _observed(dataset, None), timestep=None, chain=chain, backend=backend, cache=cache)
+        _observed(dataset, None), timestep=timestep, chain=chain, backend=backend, cache=cache)
     groups, duration = observed.groups, observed.duration_s
     cause = causes.get(cause_name)
-    evaluate = F._Evaluations(cause, comparison, groups, duration, train, None, chain,
+    evaluate = F._Evaluations(cause, comparison, groups, duration, train, timestep, chain,
                               backend, None, cache, search_starts=F.STARTS)
     rows = []
     for value in values:
@@ -59,7 +60,7 @@ def profile(dataset: Path, cause_name: str, values: list[float], *, realisation:
                      "train_median": float(np.median(per_start)),
                      "held_out_median": evaluate.held_out_error(params, realisation, held)})
     return {"dataset": str(dataset), "cause": cause_name, "parameter": cause.main.name,
-            "realisation": realisation,
+            "realisation": realisation, "timestep": timestep,
             "held_values": {k: v for k, v in cause.parameters(None, held_values).items()
                             if k != cause.main.name},
             "train_runs": train.tolist(),
@@ -73,7 +74,9 @@ def profile(dataset: Path, cause_name: str, values: list[float], *, realisation:
 def table(result: dict) -> str:
     base = result["base"]
     held = result["held_values"]
+    step = result.get("timestep")
     lines = [f"{result['cause']} on {result['dataset']} (realisation {result['realisation']}"
+             + (f", models at {step:g} s" if step else "")
              + "".join(f", {k} {v:.4g}" for k, v in held.items()) + "; training runs "
              f"{result['train_runs']}, held out {result['held_out_runs']}); base model: "
              f"training {base['train_from_rest']:.2f} from rest, {base['train_median']:.2f} "
@@ -104,6 +107,8 @@ def main(argv=None) -> int:
     ap.add_argument("--realisation", type=int, default=F.FIT_SEED,
                     help="the realisation of a cause with a random geometry (a benchmark "
                          "draw's own: numpy.random.default_rng(SEED).integers(2**31))")
+    ap.add_argument("--timestep", type=float, help="simulate the models (base and cause) at "
+                    "this step, s (default: the model's own); the records stay as they are")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--cache", type=Path, help="keep the simulations here (default with "
                     "--out: OUT/profile-simulations; otherwise none)")
@@ -130,7 +135,8 @@ def main(argv=None) -> int:
                      f"parameters ({', '.join(p.name for p in causes.get(args.cause).held)})")
         held_values[name] = float(value)
     result = profile(args.dataset, args.cause, args.values, realisation=args.realisation,
-                     held_values=held_values, threads=args.threads, cache_dir=cache)
+                     held_values=held_values, threads=args.threads, cache_dir=cache,
+                     timestep=args.timestep)
     print(table(result))
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))
