@@ -185,6 +185,26 @@ def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():
                      "worst_values": []}
 
 
+def test_the_floor_sensitivity_counts_a_band_lifted_out_of_the_noise_from_the_noise():
+    import floor_sensitivity
+    from regime_map import NOISE_FLOOR_LOG10, steady_bands
+
+    n = len(steady_bands())
+    flat = np.full((3, n), -20.0)  # every band far below the sensor's floor (-8) ...
+    flat[:, 0] = [-6.0, -6.2, -5.8]  # ... but a loud one, which a floor moves by 0.5
+    rough = [np.full((3, n), -20.0), np.full((3, n), -20.0)]
+    rough[0][:, 0], rough[1][:, 0] = -5.5, -6.0
+    rough[1][:, 1] = -5.0  # a band the floor lifts out of the noise: 3 decades from -8
+    row = floor_sensitivity.shift(flat, rough)
+    assert row["bands"] == 2  # the others stay below the noise on every floor: left out
+    assert row["worst"] == steady_bands()[1] and row["max_shift"] == pytest.approx(
+        -5.0 - NOISE_FLOOR_LOG10)
+    assert row["worst_flat"] == -20.0 and row["worst_rough"] == [-20.0, -5.0]
+    assert row["median_shift"] == pytest.approx((0.5 + 3.0) / 2)
+    assert floor_sensitivity.shift(np.full((2, n), -20.0), [np.full((2, n), -19.0)]) == {
+        "bands": 0, "max_shift": None, "median_shift": None, "worst": None}
+
+
 def test_extra_command_needs_a_change_and_refuses_a_command_the_draw_has(tmp_path, capsys):
     # a draw diagnosed again must differ from its row: one more command, another step, or
     # both; a command the draw already has is refused by name (both before any simulation)
