@@ -25,15 +25,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from skidsteer.data.dataset import Group
-from skidsteer.diagnosis.comparison import model_factory, simulate_groups
-from skidsteer.features.extract import comparison_feature_names
-from skidsteer.robot import Setup
-from skidsteer.simulation.backends import LocalBackend
+sys.path.insert(0, str(Path(__file__).resolve().parent / "bench"))
+
+from regime_map import steady_bands, steady_powers  # noqa: E402  (one command's bands)
+from skidsteer.simulation.backends import LocalBackend  # noqa: E402
 
 # The rigid limit: the shortest time constant MuJoCo takes at the study's largest step
 # (2 steps of 1e-4 s) and an impedance of 0.99 (MuJoCo's default, 0.9-0.95, leaves the
@@ -43,7 +43,6 @@ from skidsteer.simulation.backends import LocalBackend
 RIGID_SOLREF = (0.0002, 1.0)
 RIGID_SOLIMP = (0.99, 0.99, 0.001, 0.5, 2.0)
 BANDS = ("steady_ay_6.5-9Hz", "steady_ay_9-12.5Hz", "steady_ay_23-31Hz", "steady_ay_31-42Hz")
-DURATION_S = 20.0  # the benchmark's records
 
 
 def rigid_belts(spec: mujoco.MjSpec) -> None:
@@ -61,12 +60,9 @@ def band_powers(floor: str, omega_deg_s: float, timestep_s: float, edit, starts:
                 backend) -> np.ndarray:
     """(starts, BANDS): log10 of the steady band powers of one swivel from diagnose's
     starts 0..starts-1, as diagnose simulates and reduces a command."""
-    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
-    sims = simulate_groups([(model_factory(edit, timestep=timestep_s), [group])] * starts,
-                           DURATION_S, backend=backend, starts=list(range(starts)),
-                           signals=False)
-    names = comparison_feature_names()
-    return np.log10([[s.features[0][names.index(b)] for b in BANDS] for s in sims])
+    powers = steady_powers(floor, omega_deg_s, starts, timestep=timestep_s, edit=edit,
+                           backend=backend)
+    return np.log10(powers[:, [steady_bands().index(b) for b in BANDS]])
 
 
 def main(argv: list[str] | None = None) -> int:

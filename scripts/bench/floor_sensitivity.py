@@ -35,31 +35,20 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from regime_map import NOISE_FLOOR_LOG10, steady_bands  # noqa: E402
-from skidsteer.data.dataset import Group  # noqa: E402
+from regime_map import (NOISE_FLOOR_LOG10, log10_power, steady_bands,  # noqa: E402
+                        steady_powers)
 from skidsteer.diagnosis import causes  # noqa: E402
-from skidsteer.diagnosis.comparison import model_factory, simulate_groups  # noqa: E402
-from skidsteer.features.extract import comparison_feature_names  # noqa: E402
-from skidsteer.robot import Setup  # noqa: E402
+from skidsteer.diagnosis.causes.ground_roughness import (CORRELATION_LENGTH,  # noqa: E402
+                                                         HEIGHT_RMS)
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
 from skidsteer.simulation.cache import SimulationCache  # noqa: E402
-
-CORRELATION_LENGTH_M = 0.05  # the prior's value (ground_roughness.CORRELATION_LENGTH)
-
 
 def log_powers(floor: str, omega_deg_s: float, edit, starts: int, threads: int,
                timestep: float | None, cache: SimulationCache | None = None) -> np.ndarray:
     """(starts, steady bands): log10 of the steady band powers of one swivel from the
     diagnosis's starts 0..starts-1 (NaN where a band has no power)."""
-    names = list(comparison_feature_names())
-    steady = [names.index(n) for n in steady_bands()]
-    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
-    sims = simulate_groups([(model_factory(edit, timestep=timestep), [group])] * starts, 20.0,
-                           backend=LocalBackend(threads), starts=list(range(starts)),
-                           signals=False, cache=cache)
-    power = np.array([s.features[0][steady] for s in sims])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.log10(np.where(power > 0, power, np.nan))
+    return log10_power(steady_powers(floor, omega_deg_s, starts, timestep=timestep, edit=edit,
+                                     backend=LocalBackend(threads), cache=cache))
 
 
 def shift(flat: np.ndarray, rough: list[np.ndarray]) -> dict:
@@ -96,7 +85,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--floors", nargs="+", default=["concrete", "carpet"])
     ap.add_argument("--rates", type=float, nargs="+", default=[10, 20, 30, 40, 50, 60])
-    ap.add_argument("--height-rms", type=float, default=causes.get("ground_roughness").main.low,
+    ap.add_argument("--height-rms", type=float, default=HEIGHT_RMS.low,
                     help="the rough floor's RMS height, m (default: the prior's low end)")
     ap.add_argument("--realisations", type=int, default=3)
     ap.add_argument("--starts", type=int, default=3)
@@ -112,7 +101,7 @@ def main(argv=None) -> int:
     cache = SimulationCache(args.cache) if args.cache else None
     rough = causes.get("ground_roughness")
     values = rough.parameters(args.height_rms,
-                              {"correlation_length_m": CORRELATION_LENGTH_M})
+                              {CORRELATION_LENGTH.name: CORRELATION_LENGTH.value})
     for floor in args.floors:
         for omega in args.rates:
             flat = log_powers(floor, float(omega), None, args.starts, args.threads,

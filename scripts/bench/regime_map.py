@@ -32,6 +32,7 @@ from skidsteer.features.extract import comparison_feature_names
 from skidsteer.robot import Setup
 from skidsteer.simulation.backends import LocalBackend
 
+DURATION_S = 20.0  # a swivel's record, as the generalisation benchmark's
 NOISE_FLOOR_LOG10 = -8.0  # a band below it reads the sensor's noise, not the robot
 
 
@@ -40,13 +41,33 @@ def steady_bands() -> list[str]:
     return [n for n in comparison_feature_names() if n.startswith("steady_") and "wheel" not in n]
 
 
+def log10_power(power: np.ndarray) -> np.ndarray:
+    """log10 of band powers, NaN where a band has no power at all."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log10(np.where(power > 0, power, np.nan))
+
+
+def steady_powers(floor: str, omega_deg_s: float, starts: int, *, timestep: float | None,
+                  edit=None, backend, cache=None) -> np.ndarray:
+    """(starts, steady_bands()): the steady band powers of the extended robot swivelling
+    DURATION_S at omega_deg_s on `floor` from diagnose's starts 0..starts-1, simulated and
+    reduced as diagnose does a command (edit: an MjSpec edit of the model; timestep None:
+    the model's own; cache: a SimulationCache or None)."""
+    names = list(comparison_feature_names())
+    steady = [names.index(n) for n in steady_bands()]
+    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
+    sims = simulate_groups([(model_factory(edit, timestep=timestep), [group])] * starts,
+                           DURATION_S, backend=backend, starts=list(range(starts)),
+                           signals=False, cache=cache)
+    return np.array([s.features[0][steady] for s in sims])
+
+
 def band_spread(power: np.ndarray, bands: list[str]) -> dict:
     """The spread over starts (axis 0) of each band's (axis 1, named `bands`) log10
     power: the bands above the sensor's noise floor, the largest and the median
     standard deviation, and the worst band's values; no bands (a quiet command) gives
     None and no values."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_power = np.log10(np.where(power > 0, power, np.nan))
+    log_power = log10_power(power)
     with warnings.catch_warnings():  # bands with no power at all: NaN, left out
         warnings.simplefilter("ignore", RuntimeWarning)
         log_power[:, ~(np.nanmedian(log_power, axis=0) > NOISE_FLOOR_LOG10)] = np.nan
@@ -64,14 +85,9 @@ def spread(step_s: float, floor: str, omega_deg_s: float, starts: int, threads: 
            band: str | None = None, edit=None) -> dict:
     """band_spread of the base model's steady bands over `starts` starts of one command
     (edit: an MjSpec edit of the model, e.g. belt_coupling_study.rigid_belts)."""
-    names = list(comparison_feature_names())
     bands = steady_bands()
-    steady = [names.index(n) for n in bands]
-    group = Group(0.0, omega_deg_s, Setup(build="extended", floor=floor))
-    sims = simulate_groups([(model_factory(edit, timestep=step_s), [group])] * starts, 20.0,
-                           backend=LocalBackend(threads), starts=list(range(starts)),
-                           signals=False)
-    power = np.array([s.features[0][steady] for s in sims])
+    power = steady_powers(floor, omega_deg_s, starts, timestep=step_s, edit=edit,
+                          backend=LocalBackend(threads))
     row = {"step_s": step_s, "floor": floor, "omega_deg_s": omega_deg_s, "starts": starts,
            **band_spread(power, bands)}
     if band is not None:  # one band's values from every start, whatever its level
