@@ -18,6 +18,7 @@ from typing import Mapping
 
 import mujoco
 import numpy as np
+from scipy import ndimage
 
 from skidsteer.robot import tire
 from skidsteer.robot.tire import find_wheels, floor_geoms
@@ -73,6 +74,9 @@ class TireParams:
     # geometry of the contact, read by wheel_contact
     lug_count: float = _DEFAULTS["lug_count"]
     lug_depth: float = _DEFAULTS["lug_depth"]
+    # a heightfield floor between its samples: "cubic" (the samples' interpolating
+    # cubic B-spline, its slope in d(delta)/dt) or "triangles" (MuJoCo's, mj_rayHfield)
+    floor_interpolation: str = _DEFAULTS["floor_interpolation"]
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -96,7 +100,8 @@ class TireParams:
         config.pop("radius", None)
         mu_s, mu_k = FLOOR_FRICTION[floor]
         values = {"mu_static": mu_s, "mu_kinetic": mu_k}
-        values.update({k: (v if k in ("contact_point", "coupling") else float(v))
+        values.update({k: (v if k in ("contact_point", "coupling", "floor_interpolation")
+                           else float(v))
                        for k, v in config.items()})
         return cls(**values)
 
@@ -269,8 +274,55 @@ def _point_velocity(m, d, body, point):
     return np.cross(cvel[:3], offset) + cvel[3:]
 
 
+def floor_spline(m: mujoco.MjModel, hfield: int) -> np.ndarray:
+    """The cubic B-spline coefficients (nrow, ncol) of a heightfield's elevation in m,
+    with mirror ends: scipy.ndimage's prefilter, so that map_coordinates(order=3,
+    prefilter=False, mode="mirror") evaluates the samples' interpolating spline."""
+    nrow, ncol = int(m.hfield_nrow[hfield]), int(m.hfield_ncol[hfield])
+    adr = int(m.hfield_adr[hfield])
+    elevation = (m.hfield_data[adr:adr + nrow * ncol].astype(np.float64)
+                 * m.hfield_size[hfield][2]).reshape(nrow, ncol)
+    return ndimage.spline_filter(elevation, order=3, mode="mirror")
+
+
+def _bspline_slope_weights(t: float) -> np.ndarray:
+    """d/dt of the cubic B-spline's weights of samples i-1 .. i+2, t past sample i."""
+    return np.array([-(1 - t) ** 2 / 2, 1.5 * t * t - 2 * t, -1.5 * t * t + t + 0.5, t * t / 2])
+
+
+def _bspline_weights(t: float) -> np.ndarray:
+    return np.array([(1 - t) ** 3, 3 * t ** 3 - 6 * t ** 2 + 4,
+                     -3 * t ** 3 + 3 * t ** 2 + 3 * t + 1, t ** 3]) / 6
+
+
+def spline_elevation(m: mujoco.MjModel, f: int, coef: np.ndarray, x: float, y: float):
+    """(elevation m, (dh/dx, dh/dy)) of floor geom f's spline at its frame's (x, y),
+    None outside the heightfield.  The elevation is scipy's (map_coordinates); the
+    slope is the B-spline basis's derivative, written out."""
+    size = m.hfield_size[m.geom_dataid[f]]
+    nrow, ncol = coef.shape
+    if abs(x) > size[0] or abs(y) > size[1]:
+        return None
+    du_dx, dv_dy = (ncol - 1) / (2 * size[0]), (nrow - 1) / (2 * size[1])
+    u, v = (x + size[0]) * du_dx, (y + size[1]) * dv_dy
+    elevation = float(ndimage.map_coordinates(coef, [[v], [u]], order=3, prefilter=False,
+                                              mode="mirror")[0])
+    i = min(max(int(math.floor(u)), 0), max(ncol - 2, 0))
+    j = min(max(int(math.floor(v)), 0), max(nrow - 2, 0))
+    period_u, period_v = 2 * (ncol - 1), 2 * (nrow - 1)
+    cols = [(k % period_u if (k % period_u) <= ncol - 1 else period_u - k % period_u)
+            for k in range(i - 1, i + 3)]
+    rows = [(k % period_v if (k % period_v) <= nrow - 1 else period_v - k % period_v)
+            for k in range(j - 1, j + 3)]
+    patch = coef[np.ix_(rows, cols)]
+    wu, wv = _bspline_weights(u - i), _bspline_weights(v - j)
+    slope = (float(wv @ patch @ _bspline_slope_weights(u - i)) * du_dx,
+             float(_bspline_slope_weights(v - j) @ patch @ wu) * dv_dy)
+    return elevation, slope
+
+
 def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: list[int],
-                  p: TireParams = TireParams()):
+                  p: TireParams = TireParams(), splines: dict | None = None):
     """(Kinematics, frame rows [n, t_x, t_y], contact point) or None off the floor."""
     center = d.geom_xpos[wheel.geom] if wheel.geom >= 0 else d.xpos[wheel.body]
     axle = d.xaxis[wheel.joint]
@@ -294,7 +346,7 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
         scale = p.lug_depth / (1 - math.cos(pitch / 2))
         radius -= scale * (1 - math.cos(alpha))
         drop_rate = scale * math.sin(alpha) * rate
-    best, normal, spread = -np.inf, None, 1.0
+    best, normal, spread, profile_rate = -np.inf, None, 1.0, 0.0
     for f in floors:
         up = d.geom_xmat[f].reshape(3, 3)[:, 2]
         cos_tilt = float(up @ axle)
@@ -302,15 +354,31 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
         if sin_tilt < 1e-9:
             continue
         rim = radius * sin_tilt
+        rate = 0.0
         if int(m.geom_type[f]) == _PLANE:
             height = float((center - d.geom_xpos[f]) @ up)
+        elif p.floor_interpolation == "cubic":
+            mat = d.geom_xmat[f].reshape(3, 3)
+            rel = center - d.geom_xpos[f]
+            if splines is None:
+                splines = {}
+            if f not in splines:
+                splines[f] = floor_spline(m, int(m.geom_dataid[f]))
+            found = spline_elevation(m, f, splines[f], float(rel @ mat[:, 0]),
+                                     float(rel @ mat[:, 1]))
+            if found is None:
+                continue
+            elevation, slope = found
+            height = float(rel @ up) - elevation
+            v_center = _point_velocity(m, d, wheel.body, center)
+            rate = slope[0] * float(v_center @ mat[:, 0]) + slope[1] * float(v_center @ mat[:, 1])
         else:
             height = mujoco.mj_rayHfield(m, d, f, center, -up, None)
             if height < 0:
                 continue
         compression = rim - height
         if compression > best:
-            best, normal, spread = compression, up.copy(), sin_tilt
+            best, normal, spread, profile_rate = compression, up.copy(), sin_tilt, rate
     if normal is None:
         return None
     cos_tilt = float(normal @ axle)
@@ -321,7 +389,8 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
     v_rim = _point_velocity(m, d, wheel.body, point)
     v_center = _point_velocity(m, d, wheel.body, center)
     slip_x = float(v_rim @ tx)
-    k = Kinematics(compression=best, compression_rate=-float(v_rim @ normal) - drop_rate * spread,
+    k = Kinematics(compression=best,
+                   compression_rate=-float(v_rim @ normal) + profile_rate - drop_rate * spread,
                    slip_x=slip_x,
                    slip_y=float(v_rim @ ty), rolling_speed=float(v_center @ tx) - slip_x)
     return k, np.stack([normal, tx, ty]), point
@@ -340,6 +409,7 @@ class TireReference:
         self.m, self.params, self.instance = m, params, instance
         self.wheels = find_wheels(m, instance, radius)
         self.floors = floor_geoms(m)
+        self.splines: dict[int, np.ndarray] = {}  # floor geom: its heightfield's spline
 
     def _state(self, state_vector: np.ndarray, w: int) -> np.ndarray:
         adr = self.m.plugin_stateadr[self.instance] + NSTATE_WHEEL * w
@@ -406,7 +476,7 @@ class TireReference:
         J = np.zeros((n, nv))
         contacts = []
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(m, d, wheel, self.floors, p)
+            contact = wheel_contact(m, d, wheel, self.floors, p, self.splines)
             contacts.append(contact)
             if contact is not None and normal_force(p, contact[0]) > 0:
                 jacp = np.zeros((3, nv))
@@ -511,7 +581,7 @@ class TireReference:
     def explicit_generalized(self, d, forces_per_wheel) -> np.ndarray:
         qfrc = np.zeros(self.m.nv)
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(self.m, d, wheel, self.floors, self.params)
+            contact = wheel_contact(self.m, d, wheel, self.floors, self.params, self.splines)
             if contact is None or forces_per_wheel[w][0] <= 0:
                 continue
             k, frame, point = contact
@@ -527,7 +597,7 @@ class TireReference:
             return self.implicit_solve(d)[0]
         out = np.zeros((len(self.wheels), 3))
         for w, wheel in enumerate(self.wheels):
-            contact = wheel_contact(self.m, d, wheel, self.floors, self.params)
+            contact = wheel_contact(self.m, d, wheel, self.floors, self.params, self.splines)
             if contact is not None:
                 out[w] = forces(self.params, contact[0], self._state(d.plugin_state, w))
         return out
@@ -545,7 +615,8 @@ class TireReference:
             _, _, J, contacts = self.implicit_solve(d)
         for w, wheel in enumerate(self.wheels):
             st = self._state(state, w)
-            contact = contacts[w] if implicit else wheel_contact(self.m, d, wheel, self.floors, self.params)
+            contact = (contacts[w] if implicit else
+                       wheel_contact(self.m, d, wheel, self.floors, self.params, self.splines))
             if contact is None:
                 reset_state(st)
                 continue

@@ -47,6 +47,7 @@ enum {
   ATTR_REFERENCE_LOAD,
   ATTR_LUG_COUNT,
   ATTR_LUG_DEPTH,
+  ATTR_FLOOR_INTERPOLATION,
   TIRE_NATTRIBUTE
 };
 
@@ -173,6 +174,17 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "angle from the nearest lug); a rigid polygon of radius r drops r (1 - cos(pi / "
     "lug_count)), 2.5 mm for 18 lugs at 0.165 m; the tyre's carcass makes it less "
     "(fitted: no public value); used only when lug_count > 0"},
+  [ATTR_FLOOR_INTERPOLATION] = {
+    "floor_interpolation", "", SKIDSTEER_TIRE_CHOICE, NAN, "cubic", 0, 0, 0, 0, 0,
+    "cubic triangles", "",
+    "use cubic (default) or triangles",
+    "geometry of a heightfield floor between its samples: cubic, the interpolating cubic "
+    "B-spline through the samples (mirror ends, as scipy.ndimage's mode='mirror'), smooth to "
+    "its curvature, with the floor's slope under the moving wheel in d(delta)/dt (eq. 4.15); "
+    "triangles: MuJoCo's triangulation (mj_rayHfield), whose slope jumps at every grid "
+    "line, a line at v / (grid spacing) in the loads that the sampled floor does not have, "
+    "and whose d(delta)/dt leaves the floor's slope out (the plugin until 2026-12); planes "
+    "are the same under both"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -238,6 +250,10 @@ typedef struct {
   mjtNum* radius;      // unloaded wheel radius, m
   int nfloor;
   int* floor_geom;     // plane and hfield geoms of the world body
+  int cubic_floor;     // 1: heightfields as cubic B-splines (floor_interpolation)
+  mjtNum** floor_spline;  // per floor: its heightfield's B-spline coefficients (elevation,
+                          // m; nrow x ncol, row-major as hfield_data), NULL for a plane or
+                          // with floor_interpolation="triangles"
   int sensor_adr;      // address in sensordata, -1 if no sensor names the instance
 
   // Written by each passive compute, read by the sensor and by advance: derived
@@ -345,7 +361,7 @@ static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
 
 
 static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius,
-                       int* implicit, int* lug_count, mjtNum* lug_depth) {
+                       int* implicit, int* lug_count, mjtNum* lug_depth, int* cubic_floor) {
   tireConfig cfg;
   if (read_config(m, instance, &cfg)) return -1;
   const skidsteerTireFloor* floor = &kFloors[cfg.choice[ATTR_FLOOR]];
@@ -375,6 +391,7 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
   *lug_count = (int)cfg.value[ATTR_LUG_COUNT];
   *lug_depth = cfg.value[ATTR_LUG_DEPTH];
+  *cubic_floor = cfg.choice[ATTR_FLOOR_INTERPOLATION] == 0;
   return 0;
 }
 
@@ -402,6 +419,10 @@ static void free_instance(tireInstance* ti) {
   free(ti->wheel_joint);
   free(ti->wheel_geom);
   free(ti->radius);
+  if (ti->floor_spline) {
+    for (int i = 0; i < ti->nfloor; i++) free(ti->floor_spline[i]);
+  }
+  free(ti->floor_spline);
   free(ti->floor_geom);
   free(ti->touching);
   free(ti->kinematics);
@@ -509,6 +530,135 @@ static int find_wheels_and_floor(const mjModel* m, int instance, mjtNum radius_a
 }
 
 
+// ---------------------------------------------------------------- heightfield splines
+
+// A heightfield floor as the interpolating cubic B-spline through its samples
+// (floor_interpolation="cubic"): the elevation is continuous to its curvature
+// between the samples, where MuJoCo's triangles break its slope at every grid
+// line.  Coefficients by the recursive filter of Unser, Aldroubi & Eden (IEEE
+// Trans. Signal Process. 41, 1993), with the mirror-symmetric extension of
+// scipy.ndimage's mode="mirror" (d c b | a b c d | c b a), so that the samples'
+// spline is the one ndimage.map_coordinates(order=3, mode="mirror") evaluates.
+
+#define TIRE_SPLINE_POLE (-0.26794919243112270)  // sqrt(3) - 2: the cubic B-spline's pole
+
+// In place: the cubic B-spline coefficients of the n samples c[0], c[stride], ...
+static void spline_filter_line(mjtNum* c, int n, int stride) {
+  if (n < 2) return;
+  const mjtNum z = TIRE_SPLINE_POLE;
+  for (int i = 0; i < n; i++) c[i * stride] *= 6;  // the gain (1 - z)(1 - 1/z)
+  // causal initialisation for the mirror extension (its period is 2n - 2)
+  mjtNum z_n1 = pow(z, n - 1), z_i = z, first = c[0] + z_n1 * c[(n - 1) * stride];
+  for (int i = 1; i < n - 1; i++) {
+    first += z_i * (c[i * stride] + z_n1 * c[(n - 1 - i) * stride]);
+    z_i *= z;
+  }
+  c[0] = first / (1 - z_n1 * z_n1);
+  for (int i = 1; i < n; i++) c[i * stride] += z * c[(i - 1) * stride];
+  // anticausal initialisation, then the anticausal pass
+  c[(n - 1) * stride] = (z * c[(n - 2) * stride] + c[(n - 1) * stride]) * z / (z * z - 1);
+  for (int i = n - 2; i >= 0; i--) c[i * stride] = z * (c[(i + 1) * stride] - c[i * stride]);
+}
+
+
+// The B-spline coefficients of heightfield `hfield`'s elevation (m), or NULL when out of
+// memory.
+static mjtNum* floor_spline(const mjModel* m, int hfield) {
+  int nrow = m->hfield_nrow[hfield], ncol = m->hfield_ncol[hfield];
+  mjtNum* c = malloc((size_t)nrow * ncol * sizeof(mjtNum));
+  if (!c) return NULL;
+  const float* data = m->hfield_data + m->hfield_adr[hfield];
+  mjtNum scale = m->hfield_size[4 * hfield + 2];
+  for (int i = 0; i < nrow * ncol; i++) c[i] = scale * data[i];
+  for (int r = 0; r < nrow; r++) spline_filter_line(c + (size_t)r * ncol, ncol, 1);
+  for (int col = 0; col < ncol; col++) spline_filter_line(c + col, nrow, ncol);
+  return c;
+}
+
+
+static int make_floor_splines(const mjModel* m, tireInstance* ti) {
+  ti->floor_spline = calloc(ti->nfloor, sizeof(mjtNum*));
+  if (!ti->floor_spline) {
+    mju_warning("%s: out of memory", TIRE_PLUGIN_NAME);
+    return -1;
+  }
+  if (!ti->cubic_floor) return 0;
+  for (int i = 0; i < ti->nfloor; i++) {
+    int f = ti->floor_geom[i];
+    if (m->geom_type[f] != mjGEOM_HFIELD) continue;
+    ti->floor_spline[i] = floor_spline(m, m->geom_dataid[f]);
+    if (!ti->floor_spline[i]) {
+      mju_warning("%s: out of memory for the spline of heightfield '%s'", TIRE_PLUGIN_NAME,
+                  mj_id2name(m, mjOBJ_HFIELD, m->geom_dataid[f]));
+      return -1;
+    }
+  }
+  return 0;
+}
+
+
+// The cubic B-spline's weights for samples i-1 .. i+2 at fraction t in [0, 1] past
+// sample i, and their derivatives in t.
+static void spline_weights(mjtNum t, mjtNum w[4], mjtNum dw[4]) {
+  mjtNum s = 1 - t;
+  w[0] = s * s * s / 6;
+  w[1] = (3 * t * t * t - 6 * t * t + 4) / 6;
+  w[2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
+  w[3] = t * t * t / 6;
+  dw[0] = -s * s / 2;
+  dw[1] = 1.5 * t * t - 2 * t;
+  dw[2] = -1.5 * t * t + t + 0.5;
+  dw[3] = t * t / 2;
+}
+
+
+// Sample i of n, reflected at the ends as the mirror extension does.
+static int mirror_index(int i, int n) {
+  if (n < 2) return 0;
+  int period = 2 * (n - 1);
+  i %= period;
+  if (i < 0) i += period;
+  return i > n - 1 ? period - i : i;
+}
+
+
+// The spline's elevation (m) at the heightfield coordinates (x, y) of floor geom f
+// (its frame, origin at its centre) and its slope (dh/dx, dh/dy).  Returns 0 when
+// (x, y) lies outside the heightfield, as mj_rayHfield misses it.
+static int spline_elevation(const mjModel* m, int f, const mjtNum* coef, mjtNum x, mjtNum y,
+                            mjtNum* elevation, mjtNum slope[2]) {
+  int hfield = m->geom_dataid[f];
+  const mjtNum* size = m->hfield_size + 4 * hfield;
+  int nrow = m->hfield_nrow[hfield], ncol = m->hfield_ncol[hfield];
+  if (x < -size[0] || x > size[0] || y < -size[1] || y > size[1]) return 0;
+  // grid coordinates: column u along x, row v along y (hfield_data's layout)
+  mjtNum du_dx = (ncol - 1) / (2 * size[0]), dv_dy = (nrow - 1) / (2 * size[1]);
+  mjtNum u = (x + size[0]) * du_dx, v = (y + size[1]) * dv_dy;
+  int i = mjMIN(mjMAX((int)floor(u), 0), mjMAX(ncol - 2, 0));
+  int j = mjMIN(mjMAX((int)floor(v), 0), mjMAX(nrow - 2, 0));
+  mjtNum wu[4], dwu[4], wv[4], dwv[4];
+  spline_weights(u - i, wu, dwu);
+  spline_weights(v - j, wv, dwv);
+  mjtNum h = 0, h_u = 0, h_v = 0;
+  for (int a = 0; a < 4; a++) {
+    const mjtNum* row = coef + (size_t)mirror_index(j - 1 + a, nrow) * ncol;
+    mjtNum along = 0, along_u = 0;
+    for (int b = 0; b < 4; b++) {
+      mjtNum c = row[mirror_index(i - 1 + b, ncol)];
+      along += wu[b] * c;
+      along_u += dwu[b] * c;
+    }
+    h += wv[a] * along;
+    h_u += wv[a] * along_u;
+    h_v += dwv[a] * along;
+  }
+  *elevation = h;
+  slope[0] = h_u * du_dx;
+  slope[1] = h_v * dv_dy;
+  return 1;
+}
+
+
 // ---------------------------------------------------------------- kinematics
 
 // Velocity of the material point p of body b, world frame.
@@ -567,7 +717,7 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
   }
 
   int found = 0;
-  mjtNum best = -mjMAXVAL, normal[3] = {0, 0, 1}, spread = 1;
+  mjtNum best = -mjMAXVAL, normal[3] = {0, 0, 1}, spread = 1, profile_rate = 0;
   for (int i = 0; i < ti->nfloor; i++) {
     int f = ti->floor_geom[i];
     const mjtNum* mat = d->geom_xmat + 9 * f;
@@ -579,11 +729,24 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
     // distance from the wheel center down to its lowest rim point, along up
     mjtNum rim = radius * sin_tilt;
 
-    mjtNum height;
+    mjtNum height, rate = 0;
     if (m->geom_type[f] == mjGEOM_PLANE) {
       mjtNum rel[3];
       mju_sub3(rel, center, d->geom_xpos + 3 * f);
       height = mju_dot3(rel, up);
+    } else if (ti->floor_spline[i]) {
+      // the spline's elevation under the centre, and how fast it rises under the
+      // centre's motion across the floor: d(delta)/dt = -(approach) + slope . v
+      mjtNum rel[3], elevation, slope[2], v_center[3];
+      mju_sub3(rel, center, d->geom_xpos + 3 * f);
+      mjtNum x_axis[3] = {mat[0], mat[3], mat[6]}, y_axis[3] = {mat[1], mat[4], mat[7]};
+      if (!spline_elevation(m, f, ti->floor_spline[i], mju_dot3(rel, x_axis),
+                            mju_dot3(rel, y_axis), &elevation, slope)) {
+        continue;  // not above this heightfield
+      }
+      height = mju_dot3(rel, up) - elevation;
+      point_velocity(m, d, body, center, v_center);
+      rate = slope[0] * mju_dot3(v_center, x_axis) + slope[1] * mju_dot3(v_center, y_axis);
     } else {
       mjtNum down[3] = {-up[0], -up[1], -up[2]};
       height = mj_rayHfield(m, d, f, center, down, NULL);
@@ -594,6 +757,7 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
       best = compression;
       mju_copy3(normal, up);
       spread = sin_tilt;
+      profile_rate = rate;
       found = 1;
     }
   }
@@ -620,8 +784,9 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
   point_velocity(m, d, body, point, v_rim);
   point_velocity(m, d, body, center, v_center);
   k->compression = best;
-  // the rim point's approach, less the shrinking of the rolling radius (lugs)
-  k->compression_rate = -mju_dot3(v_rim, n) - drop_rate * spread;
+  // the rim point's approach, plus the floor rising under it (a cubic heightfield),
+  // less the shrinking of the rolling radius (lugs)
+  k->compression_rate = -mju_dot3(v_rim, n) + profile_rate - drop_rate * spread;
   k->slip_x = mju_dot3(v_rim, tx);
   k->slip_y = mju_dot3(v_rim, ty);
   k->rolling_speed = mju_dot3(v_center, tx) - k->slip_x;
@@ -652,8 +817,8 @@ static int tire_init(const mjModel* m, mjData* d, int instance) {
   }
   mjtNum radius_attr = 0;
   if (read_params(m, instance, &ti->params, &radius_attr, &ti->implicit, &ti->lug_count,
-                  &ti->lug_depth) ||
-      find_wheels_and_floor(m, instance, radius_attr, ti)) {
+                  &ti->lug_depth, &ti->cubic_floor) ||
+      find_wheels_and_floor(m, instance, radius_attr, ti) || make_floor_splines(m, ti)) {
     free_instance(ti);
     return -1;
   }

@@ -38,8 +38,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from regime_map import (NOISE_FLOOR_LOG10, log10_power, steady_bands,  # noqa: E402
                         steady_powers)
 from skidsteer.diagnosis import causes  # noqa: E402
+from skidsteer.diagnosis.causes import ground_roughness  # noqa: E402
 from skidsteer.diagnosis.causes.ground_roughness import (CORRELATION_LENGTH,  # noqa: E402
-                                                         HEIGHT_RMS)
+                                                         GRID_PER_CORRELATION, HEIGHT_RMS)
+from skidsteer.robot import tire  # noqa: E402
 from skidsteer.simulation.backends import LocalBackend  # noqa: E402
 from skidsteer.simulation.cache import SimulationCache  # noqa: E402
 
@@ -49,6 +51,19 @@ def log_powers(floor: str, omega_deg_s: float, edit, starts: int, threads: int,
     diagnosis's starts 0..starts-1 (NaN where a band has no power)."""
     return log10_power(steady_powers(floor, omega_deg_s, starts, timestep=timestep, edit=edit,
                                      backend=LocalBackend(threads), cache=cache))
+
+
+def rough_floor(values: dict, realisation: int, samples_per_correlation: int,
+                interpolation: str | None):
+    """The edit that lays ground_roughness's floor of these parameters and realisation,
+    sampled samples_per_correlation times per correlation length, under a tire plugin
+    whose floor_interpolation is `interpolation` (None: the plugin's default)."""
+    def edit(spec):
+        ground_roughness.apply(spec, values, realisation,
+                               samples_per_correlation=samples_per_correlation)
+        if interpolation is not None:
+            tire.configure(spec, {"floor_interpolation": interpolation})
+    return edit
 
 
 def shift(flat: np.ndarray, rough: list[np.ndarray]) -> dict:
@@ -90,6 +105,13 @@ def main(argv=None) -> int:
     ap.add_argument("--realisations", type=int, default=3)
     ap.add_argument("--starts", type=int, default=3)
     ap.add_argument("--timestep", type=float, help="the models' step, s (default: their own)")
+    ap.add_argument("--samples-per-correlation", type=int, default=GRID_PER_CORRELATION,
+                    help="the rough floor's grid: samples per correlation length (default: "
+                    "the cause's; up to 10 at 5 cm samples the same floor more finely, "
+                    "its 5 mm drawing grid)")
+    ap.add_argument("--floor-interpolation", choices=("cubic", "triangles"),
+                    help="the tire plugin's floor_interpolation on the rough floor "
+                    "(default: the plugin's, cubic)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--cache", type=Path, help="keep the simulations here (a rerun reuses "
                     "them)")
@@ -99,6 +121,10 @@ def main(argv=None) -> int:
     if args.realisations < 1:
         ap.error(f"--realisations {args.realisations}: at least 1")
     cache = SimulationCache(args.cache) if args.cache else None
+    if args.samples_per_correlation < 1:
+        ap.error(f"--samples-per-correlation {args.samples_per_correlation}: at least 1")
+    interpolation = (args.floor_interpolation
+                     or tire.attributes()["floor_interpolation"].default)
     rough = causes.get("ground_roughness")
     values = rough.parameters(args.height_rms,
                               {CORRELATION_LENGTH.name: CORRELATION_LENGTH.value})
@@ -106,12 +132,17 @@ def main(argv=None) -> int:
         for omega in args.rates:
             flat = log_powers(floor, float(omega), None, args.starts, args.threads,
                               args.timestep, cache)
-            floors = [log_powers(floor, float(omega), rough.edit(values, r), args.starts,
-                                 args.threads, args.timestep, cache)
+            floors = [log_powers(floor, float(omega),
+                                 rough_floor(values, r, args.samples_per_correlation,
+                                             args.floor_interpolation),
+                                 args.starts, args.threads, args.timestep, cache)
                       for r in range(args.realisations)]
             print(json.dumps({"floor": floor, "omega_deg_s": float(omega),
                               "height_rms_m": args.height_rms, "timestep": args.timestep,
-                              "starts": args.starts, **shift(flat, floors)}), flush=True)
+                              "starts": args.starts,
+                              "samples_per_correlation": args.samples_per_correlation,
+                              "floor_interpolation": interpolation,
+                              **shift(flat, floors)}), flush=True)
     return 0
 
 

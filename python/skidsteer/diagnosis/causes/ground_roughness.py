@@ -45,12 +45,13 @@ def fine_intervals(half_size_m: float) -> int:
 
 
 def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float,
-            seed: int) -> np.ndarray:
+            seed: int, samples_per_correlation: int = GRID_PER_CORRELATION) -> np.ndarray:
     """Heights (n, n) in m on a square of side 2 half_size_m: zero-mean, RMS height_rms_m,
     a Gaussian filter of width correlation_length_m / sqrt(2) over white noise drawn
     from the seed on a FINE_STEP_M grid, kept at every k-th sample (k the largest
-    whole number of fine steps that divides the side and keeps GRID_PER_CORRELATION
-    samples per correlation length)."""
+    whole number of fine steps that divides the side and keeps samples_per_correlation
+    samples per correlation length; more than the fine grid holds keeps every sample:
+    the same floor, sampled as finely as it was drawn)."""
     intervals = fine_intervals(half_size_m)
     if intervals + 1 > 2001:
         raise NotApplicable(f"ground_roughness: a {2 * half_size_m:g} m floor at "
@@ -60,21 +61,22 @@ def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float
     white = np.random.default_rng(seed).standard_normal((intervals + 1, intervals + 1))
     field = ndimage.gaussian_filter(white, correlation_length_m / np.sqrt(2) / fine_step_m,
                                     mode="wrap")
-    widest = max(1, int(correlation_length_m / GRID_PER_CORRELATION / fine_step_m))
+    widest = max(1, int(correlation_length_m / samples_per_correlation / fine_step_m))
     stride = max(k for k in range(1, widest + 1) if intervals % k == 0)
     field = field[::stride, ::stride]
     field = field - field.mean()
     return field * (height_rms_m / field.std())
 
 
-def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_SIZE_M) -> None:
+def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_SIZE_M,
+          samples_per_correlation: int = GRID_PER_CORRELATION) -> None:
     planes = [g for g in spec.worldbody.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
     if len(planes) != 1:
         raise NotApplicable(f"ground_roughness needs one floor plane in the world body, the "
                             f"model has {len(planes)}")
     floor = planes[0]
     heights = surface(params["height_rms_m"], params["correlation_length_m"], half_size_m,
-                         seed)
+                      seed, samples_per_correlation)
     low, span = float(heights.min()), float(np.ptp(heights))
     n = heights.shape[0]
     spec.add_hfield(name="rough_floor", size=[half_size_m, half_size_m, span, 0.05],
