@@ -160,3 +160,37 @@ def test_plugin_state_is_part_of_fullphysics_state(mid_swivel):
     size_physics = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_PHYSICS)
     size_full = mujoco.mj_stateSize(m, FULLPHYSICS)
     assert size_full - size_physics >= m.npluginstate == 24
+
+
+def test_a_wheel_driven_off_every_floor_is_warned_of_once():
+    # a heightfield is the only floor: a wheel beyond its edge finds none and gets no
+    # tire force (as in the air), which a user should not learn from a fallen robot
+    from skidsteer.diagnosis import causes
+    from skidsteer.robot import load_model
+
+    said: list[str] = []
+    before = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(said.append)
+    try:
+        rough = causes.get("ground_roughness")
+        m = load_model("extended", "concrete", edit=rough.edit(rough.parameters()))
+        d = mujoco.MjData(m)
+        for _ in range(10):
+            mujoco.mj_step(m, d)
+        assert not said  # on the floor
+        d = mujoco.MjData(m)
+        d.qpos[0] = 5.0  # the floor is 3 m square about the origin
+        for _ in range(10):
+            mujoco.mj_step(m, d)
+        assert len(said) == 1 and "beyond every floor" in said[0], said
+        assert "skidsteer.tire instance 'tires'" in said[0] and "wheel '" in said[0]
+        # a plane is under every wheel everywhere: never warned of
+        said.clear()
+        m = load_model("extended", "concrete")
+        d = mujoco.MjData(m)
+        d.qpos[0] = 50.0
+        for _ in range(10):
+            mujoco.mj_step(m, d)
+        assert not said
+    finally:
+        mujoco.set_mju_user_warning(before)

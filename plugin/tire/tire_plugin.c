@@ -255,6 +255,7 @@ typedef struct {
                           // m; nrow x ncol, row-major as hfield_data), NULL for a plane or
                           // with floor_interpolation="triangles"
   int sensor_adr;      // address in sensordata, -1 if no sensor names the instance
+  int warned_off_floor;   // 1 once a wheel beyond every floor was warned of (per mjData)
 
   // Written by each passive compute, read by the sensor and by advance: derived
   // from mjData and plugin_state, never state of their own.
@@ -793,6 +794,28 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
   return 1;
 }
 
+// 1 when wheel w's centre lies beyond every floor: the worldbody has no plane and the
+// centre is outside every heightfield's extent (a robot driven off a heightfield's
+// edge).  Such a wheel finds no floor and gets no tire force, as a wheel in the air.
+static int beyond_every_floor(const mjModel* m, const mjData* d, const tireInstance* ti,
+                              int w) {
+  int geom = ti->wheel_geom[w];
+  const mjtNum* center = geom >= 0 ? d->geom_xpos + 3 * geom : d->xpos + 3 * ti->wheel_body[w];
+  for (int i = 0; i < ti->nfloor; i++) {
+    int f = ti->floor_geom[i];
+    if (m->geom_type[f] == mjGEOM_PLANE) return 0;
+    const mjtNum* mat = d->geom_xmat + 9 * f;
+    const mjtNum* size = m->hfield_size + 4 * m->geom_dataid[f];
+    mjtNum rel[3];
+    mju_sub3(rel, center, d->geom_xpos + 3 * f);
+    mjtNum x = rel[0] * mat[0] + rel[1] * mat[3] + rel[2] * mat[6];
+    mjtNum y = rel[0] * mat[1] + rel[1] * mat[4] + rel[2] * mat[7];
+    if (fabs(x) <= size[0] && fabs(y) <= size[1]) return 0;
+  }
+  return 1;
+}
+
+
 // ---------------------------------------------------------------- callbacks
 
 static int tire_nstate(const mjModel* m, int instance) {
@@ -1321,6 +1344,14 @@ static void tire_advance_cb(const mjModel* m, mjData* d, int instance) {
       tire_advance(&ti->params, &k, m->opt.timestep, st);
     } else {
       tire_reset_state(st);
+      if (!ti->warned_off_floor && beyond_every_floor(m, d, ti, w)) {
+        const char* name = mj_id2name(m, mjOBJ_BODY, ti->wheel_body[w]);
+        mju_warning("%s instance '%s': wheel '%s' is beyond every floor at t = %.4g s (off "
+                    "the edge of every heightfield, no plane): it gets no tire force; "
+                    "warned once per mjData", TIRE_PLUGIN_NAME, instance_name(m, instance),
+                    name ? name : "(unnamed)", d->time);
+        ti->warned_off_floor = 1;
+      }
     }
   }
   ti->fresh = 0;
