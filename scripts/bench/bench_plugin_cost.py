@@ -23,6 +23,11 @@ same time step with the same commands in one process:
           constraint row is left and MuJoCo skips its solver): where the
           shipped robot's step goes.  Only no_collision is the shipped robot
           (its states are compared with plugin's).
+  rough_cubic, rough_triangles  the shipped robot on ground_roughness's floor (RMS
+          0.35 mm, correlation 5 cm, realisation 0: a 3 m heightfield of 301^2
+          samples) as the tire plugin reads it by default (floor_interpolation
+          cubic, the samples' B-spline) and as MuJoCo's triangles (mj_rayHfield):
+          what a rough floor costs per step, and the spline against the ray.
 
 Each variant is settled for 2 s (untimed), then a swivel at --omega deg/s
 (firmware ramp, simulation.DriveGeometry.ramp) of --duration s is stepped by
@@ -114,13 +119,22 @@ def disabled(*flags: mujoco.mjtDisableBit):
 
 
 CONTACT, EQUALITY = mujoco.mjtDisableBit.mjDSBL_CONTACT, mujoco.mjtDisableBit.mjDSBL_EQUALITY
+ROUGH_FLOOR = {"height_rms_m": 3.5e-4, "correlation_length_m": 0.05}  # issue 21's case
+
+
+def rough_floor_edit(spec: mujoco.MjSpec) -> None:
+    """The shipped robot on ground_roughness's floor (ROUGH_FLOOR, realisation 0)."""
+    from skidsteer.diagnosis.causes import ground_roughness
+    ground_roughness.apply(spec, ROUGH_FLOOR, 0)
 
 
 VARIANTS = {"plugin": None, "plugin_implicit": None, "native": native_edit,
             "native_armature": native_armature_edit, "bare": bare_edit,
             "no_collision": disabled(CONTACT), "no_belts": disabled(EQUALITY),
-            "no_constraints": disabled(CONTACT, EQUALITY)}
-TIRE = {"plugin_implicit": {"coupling": "implicit"}}  # tire attributes per variant
+            "no_constraints": disabled(CONTACT, EQUALITY),
+            "rough_cubic": rough_floor_edit, "rough_triangles": rough_floor_edit}
+TIRE = {"plugin_implicit": {"coupling": "implicit"},  # tire attributes per variant
+        "rough_triangles": {"floor_interpolation": "triangles"}}
 
 
 def prepare(name: str, timestep: float, control: np.ndarray) -> dict:
@@ -217,6 +231,17 @@ def print_tables(results: list[dict], args) -> None:
             row = r["rows"][name]
             print(f"| {r['timestep_s']:g} | {name} | {row['us_per_step_median'] / shipped:.2f} "
                   f"| {'yes' if row['same_as_plugin'] else 'no'} |")
+    print("\nA rough floor (ground_roughness, 0.35 mm at 5 cm), read as the samples' cubic "
+          "spline (the default) or as MuJoCo's triangles:")
+    print("\n| dt (s) | variant | x plugin on the plane (median) | cubic / triangles (median) |")
+    print("|---|---|---|---|")
+    for r in results:
+        shipped = r["rows"]["plugin"]["us_per_step_median"]
+        triangles = r["rows"]["rough_triangles"]["us_per_step_median"]
+        for name in ("rough_cubic", "rough_triangles"):
+            row = r["rows"][name]
+            print(f"| {r['timestep_s']:g} | {name} | {row['us_per_step_median'] / shipped:.2f} "
+                  f"| {row['us_per_step_median'] / triangles:.2f} |")
     print("\n| dt (s) | plugin / native (min) | plugin / native (median) | "
           f"target <= {TARGET_RATIO} | implicit / explicit coupling (median) |")
     print("|---|---|---|---|---|")
