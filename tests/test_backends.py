@@ -156,12 +156,14 @@ def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
     from skidsteer.reports.diagnosis import diagnose
 
     # ground_roughness draws random floors (heightfields in the pickled models) and
-    # chooses one; two candidates, fitted concurrently as on a wide cluster (the
-    # decision follows the backend's width, widened here: Ray still runs 2 at a time)
-    candidates = ["ground_roughness", "slip_lambda_max"]
-    # the two diagnoses run side by side: each simulates one command at a time for most
-    # of its searches (76 s and 77 s alone here, one after the other), so together they
-    # keep both cores busy; in turn this test held a pytest worker for 423 s under CI=true
+    # chooses one.  One candidate (the CI budget: with slip_lambda_max beside it, 110
+    # simulations a diagnosis where this takes 84, and the test held a pytest worker
+    # for 641 s under CI=true in stop 54's suite); the pair and the ranking of several
+    # causes are local code and tested in test_diagnose.py.  The two diagnoses run
+    # side by side: each simulates one command at a time for most of its searches, so
+    # together they keep both cores busy; the fit's decisions follow the backend's
+    # width, widened here as on a wide cluster (Ray still runs 2 at a time)
+    candidates = ["ground_roughness"]
     ray_backend.concurrency, width = 10**6, ray_backend.concurrency
     try:
         with ThreadPoolExecutor(max_workers=2) as pool:
@@ -176,7 +178,7 @@ def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
         result.pop("wall_time_s")
     # as text, so that a NaN (an unscored feature) equals itself
     assert json.dumps(on_ray, sort_keys=True) == json.dumps(local, sort_keys=True)
-    assert [r["cause"] for r in local["ranking"]] == ["slip_lambda_max", "ground_roughness"]
-    assert local["ranking"][1]["realisation"] is not None
+    assert [r["cause"] for r in local["ranking"]] == ["ground_roughness"]
+    assert local["ranking"][0]["realisation"] is not None
     # one command: its held-out trial repeats the trained command, so nothing is named
     assert local["verdict"] == "unexplained" and "repeat the commands" in local["reason"]
