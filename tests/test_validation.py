@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import pytest
 
@@ -65,6 +67,17 @@ def test_unknown_floor_in_the_model_fails_naming_it():
 def test_unknown_contact_point_model_fails_naming_it():
     with pytest.raises(ValueError, match='contact_point="stick" is unknown: use coulomb'):
         skidsteer.load_model(tire={"contact_point": "stick"})
+
+
+@pytest.mark.parametrize("key, value, rule", [
+    ("coupling", "semi", "use explicit (default) or implicit"),
+    ("floor_interpolation", "linear", "use cubic (default) or triangles"),
+])
+def test_unknown_choice_attribute_fails_at_compile_time_naming_it(key, value, rule):
+    spec = mujoco.MjSpec.from_file(str(skidsteer.model_path("extended")))
+    spec.plugins[0].config = {key: value}
+    with pytest.raises(ValueError, match=re.escape(f'{key}="{value}" is unknown: {rule}')):
+        spec.compile()
 
 
 def test_loader_rejects_unknown_names_before_compiling():
