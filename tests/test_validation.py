@@ -8,7 +8,7 @@ import mujoco
 import pytest
 
 import skidsteer
-from skidsteer.robot import load_spec
+from skidsteer.robot import load_spec, tire
 
 BAD_ATTRIBUTES = [
     ("stiffness_y", "-5", "must be a finite number > 0"),
@@ -57,27 +57,24 @@ def test_mu_kinetic_above_mu_static_names_both_values():
         skidsteer.load_model(tire={"mu_static": 0.9, "mu_kinetic": 0.99})
 
 
-def test_unknown_floor_in_the_model_fails_naming_it():
+CHOICE_ATTRIBUTES = [a for a in tire.attributes().values() if a.kind == "choice"]
+
+
+@pytest.mark.parametrize("attribute", CHOICE_ATTRIBUTES, ids=lambda a: a.name)
+def test_unknown_choice_fails_at_compile_time_naming_it_and_the_choices(attribute):
+    # every choice attribute of the plugin's table (floor, contact_point, coupling,
+    # floor_interpolation, ...): the message names the attribute, the value and its rule
+    assert "ice" not in attribute.choices
     spec = mujoco.MjSpec.from_file(str(skidsteer.model_path("extended")))
-    spec.plugins[0].config = {"floor": "ice"}
-    with pytest.raises(ValueError, match='floor="ice" is unknown'):
+    spec.plugins[0].config = {attribute.name: "ice"}
+    with pytest.raises(ValueError, match=re.escape(
+            f'{attribute.name}="ice" is unknown: {attribute.rule}')):
         spec.compile()
 
 
 def test_unknown_contact_point_model_fails_naming_it():
     with pytest.raises(ValueError, match='contact_point="stick" is unknown: use coulomb'):
         skidsteer.load_model(tire={"contact_point": "stick"})
-
-
-@pytest.mark.parametrize("key, value, rule", [
-    ("coupling", "semi", "use explicit (default) or implicit"),
-    ("floor_interpolation", "linear", "use cubic (default) or triangles"),
-])
-def test_unknown_choice_attribute_fails_at_compile_time_naming_it(key, value, rule):
-    spec = mujoco.MjSpec.from_file(str(skidsteer.model_path("extended")))
-    spec.plugins[0].config = {key: value}
-    with pytest.raises(ValueError, match=re.escape(f'{key}="{value}" is unknown: {rule}')):
-        spec.compile()
 
 
 def test_loader_rejects_unknown_names_before_compiling():
