@@ -140,12 +140,16 @@ def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
 
 
 @pytest.mark.parametrize("option, named", [(["--timestep", "5e-05"], "step"),
-                                           (["--model-spread"], "model_spread")])
+                                           (["--model-spread"], "model_spread"),
+                                           (["--rough-floor-normal", "surface"],
+                                            "rough_floor_normal")])
 def test_a_results_file_holds_rows_of_one_step_and_one_scale(tmp_path, capsys, option,
                                                               named):
-    # rows simulated at another step (--timestep) or read against another scale
-    # (--model-spread) must not join the committed table's rows, which are all at the
-    # model's own step and the trials' scale: the benchmark refuses before running,
+    # rows simulated at another step (--timestep), read against another scale
+    # (--model-spread) or on a rough floor with another contact normal
+    # (--rough-floor-normal) must not join the committed table's rows, which are all at
+    # the model's own step, the trials' scale and the plugin's default normal: the
+    # benchmark refuses before running,
     # naming the file and what differs
     results = tmp_path / "rows.jsonl"
     row = json.loads((DOCS / "diagnose-generalisation.jsonl").read_text().splitlines()[-1])

@@ -169,16 +169,18 @@ def test_plugin_equals_reference_with_the_thesis_relay(seed):
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
 
-@pytest.mark.parametrize("interpolation", ["cubic", "triangles"])
+@pytest.mark.parametrize("interpolation, normal", [
+    ("cubic", "vertical"), ("triangles", "vertical"), ("cubic", "surface")])
 @pytest.mark.parametrize("seed", range(3))
-def test_plugin_equals_reference_on_a_heightfield(seed, interpolation):
+def test_plugin_equals_reference_on_a_heightfield(seed, interpolation, normal):
     rng = np.random.default_rng(100 + seed)
     config = random_config(rng)
     config["floor_interpolation"] = interpolation
+    config["floor_normal"] = normal
     m = with_heightfield(load_spec("extended", tire=config), rng).compile()
     assert m.ngeom and m.geom_type[0] == mujoco.mjtGeom.mjGEOM_HFIELD
     ref = TireReference(m, TireParams.from_config(config))
-    assert ref.params.floor_interpolation == interpolation
+    assert (ref.params.floor_interpolation, ref.params.floor_normal) == (interpolation, normal)
     branches = compare(m, ref, rng, trials=60)
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
@@ -195,6 +197,74 @@ def _rough_floor_model(heights: np.ndarray, half_size_m: float, interpolation: s
     floor.hfieldname = "rough"
     floor.pos = [0, 0, low]
     return spec.compile()
+
+
+def _robot_on_a_slope(slope: float, floor: str, normal: str = "vertical") -> tuple:
+    """The extended build at rest (5 s, motors holding zero speed) heading up a floor that
+    rises along world x at `slope` (dh/dx): a plane tilted by atan(slope) ("plane") or
+    a heightfield ramp of 121 x 121 samples over 6 m ("ramp", read as its cubic
+    spline, whose interior reproduces a ramp exactly).  (tire sensor rows [N, f_x, f_y]
+    per wheel, the robot's weight m g)."""
+    from skidsteer.simulation.run import settle
+
+    spec = load_spec("extended", tire={"floor_normal": normal})
+    ground = spec.geom("floor")
+    if floor == "plane":
+        quat = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(quat, [0.0, -1.0, 0.0], math.atan(slope))
+        ground.quat = quat
+    else:
+        n, half = 121, 3.0
+        x = np.linspace(-half, half, n)
+        heights = np.tile(slope * x, (n, 1))  # rows along y, columns along x
+        span = float(np.ptp(heights))
+        spec.add_hfield(name="ramp", size=[half, half, span, 0.05], nrow=n, ncol=n,
+                        userdata=((heights - heights.min()) / span).ravel().tolist())
+        ground.type = mujoco.mjtGeom.mjGEOM_HFIELD
+        ground.hfieldname = "ramp"
+        ground.pos = [0, 0, float(heights.min())]
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    settle(m, d, 5.0)  # 2 s leaves it still stopping (f_x 6 % above the statics)
+    mujoco.mj_forward(m, d)
+    adr, nwheel = m.sensor("tire_forces").adr[0], len(find_wheels(m))
+    weight = mujoco.mj_getTotalmass(m) * float(np.linalg.norm(m.opt.gravity))
+    return d.sensordata[adr:adr + 3 * nwheel].reshape(nwheel, 3).copy(), weight
+
+
+def test_surface_normal_on_a_heightfield_ramp_is_the_tilted_plane():
+    # floor_normal="surface": a robot at rest on a 10 % heightfield ramp is loaded as on
+    # the plane tilted by atan(0.1): its normal forces carry m g cos(theta) and its
+    # longitudinal friction m g sin(theta).  The vertical normal (the default) carries
+    # the whole weight in N and nothing along the slope.  Compared as the four wheels'
+    # sums (the wheels' frames are parallel here), which statics fixes: how the load
+    # splits among four wheels is statically indeterminate, set by the tires' stick-slip
+    # history, which roundoff (the heightfield's float32 samples) reaches (the split
+    # moved by ~1 % of a wheel's f_x between plane and ramp, their sums by 1e-4 of the
+    # weight).  Tolerances: 0.1 % of the weight on N and 1 % of m g sin(theta) on f_x,
+    # 5x and 10x below what the vertical normal moves them (0.5 %, 100 %).
+    slope = 0.1
+    theta = math.atan(slope)
+    plane, weight = _robot_on_a_slope(slope, "plane")
+    surface, _ = _robot_on_a_slope(slope, "ramp", "surface")
+    vertical, _ = _robot_on_a_slope(slope, "ramp", "vertical")
+    along = weight * math.sin(theta)
+    # the premise, on the plane: N and f_x share the weight as the slope says
+    assert plane[:, 0].sum() == pytest.approx(weight * math.cos(theta), abs=1e-3 * weight)
+    assert abs(plane[:, 1].sum()) == pytest.approx(along, abs=0.01 * along)
+    assert surface[:, 0].sum() == pytest.approx(plane[:, 0].sum(), abs=1e-3 * weight)
+    assert surface[:, 1].sum() == pytest.approx(plane[:, 1].sum(), abs=0.01 * along)
+    assert vertical[:, 0].sum() == pytest.approx(weight, abs=1e-3 * weight)
+    assert abs(vertical[:, 1].sum()) < 0.01 * along
+
+
+def test_surface_normal_needs_the_cubic_floor():
+    # MuJoCo's triangles give the plugin no normal: the pair fails at compile time, named
+    spec = with_heightfield(load_spec("extended", tire={
+        "floor_interpolation": "triangles", "floor_normal": "surface"}),
+        np.random.default_rng(0))
+    with pytest.raises(ValueError, match='floor_normal="surface".*triangles'):
+        spec.compile()
 
 
 def test_cubic_floor_passes_through_the_samples_with_its_own_slope():

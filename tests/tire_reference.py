@@ -77,6 +77,9 @@ class TireParams:
     # a heightfield floor between its samples: "cubic" (the samples' interpolating
     # cubic B-spline, its slope in d(delta)/dt) or "triangles" (MuJoCo's, mj_rayHfield)
     floor_interpolation: str = _DEFAULTS["floor_interpolation"]
+    # the contact normal on a heightfield: "vertical" (the floor geom's up) or
+    # "surface" (the cubic floor's own normal under the wheel centre)
+    floor_normal: str = _DEFAULTS["floor_normal"]
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -100,7 +103,8 @@ class TireParams:
         config.pop("radius", None)
         mu_s, mu_k = FLOOR_FRICTION[floor]
         values = {"mu_static": mu_s, "mu_kinetic": mu_k}
-        values.update({k: (v if k in ("contact_point", "coupling", "floor_interpolation")
+        values.update({k: (v if k in ("contact_point", "coupling", "floor_interpolation",
+                                     "floor_normal")
                            else float(v))
                        for k, v in config.items()})
         return cls(**values)
@@ -349,12 +353,7 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
     best, normal, spread, profile_rate = -np.inf, None, 1.0, 0.0
     for f in floors:
         up = d.geom_xmat[f].reshape(3, 3)[:, 2]
-        cos_tilt = float(up @ axle)
-        sin_tilt = math.sqrt(max(0.0, 1 - cos_tilt * cos_tilt))
-        if sin_tilt < 1e-9:
-            continue
-        rim = radius * sin_tilt
-        rate = 0.0
+        floor_normal, surface, rate = up.copy(), False, 0.0
         if int(m.geom_type[f]) == _PLANE:
             height = float((center - d.geom_xpos[f]) @ up)
         elif p.floor_interpolation == "cubic":
@@ -370,15 +369,29 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
                 continue
             elevation, slope = found
             height = float(rel @ up) - elevation
-            v_center = _point_velocity(m, d, wheel.body, center)
-            rate = slope[0] * float(v_center @ mat[:, 0]) + slope[1] * float(v_center @ mat[:, 1])
+            if p.floor_normal == "surface":
+                # the floor's own normal; its rise under the centre is in -v.n
+                floor_normal = up - slope[0] * mat[:, 0] - slope[1] * mat[:, 1]
+                floor_normal /= np.linalg.norm(floor_normal)
+                surface = True
+            else:
+                v_center = _point_velocity(m, d, wheel.body, center)
+                rate = (slope[0] * float(v_center @ mat[:, 0])
+                        + slope[1] * float(v_center @ mat[:, 1]))
         else:
             height = mujoco.mj_rayHfield(m, d, f, center, -up, None)
             if height < 0:
                 continue
+        cos_tilt = float(floor_normal @ axle)
+        sin_tilt = math.sqrt(max(0.0, 1 - cos_tilt * cos_tilt))
+        if sin_tilt < 1e-9:
+            continue
+        rim = radius * sin_tilt
+        if surface:
+            height *= float(floor_normal @ up)  # to the floor's tangent plane, along n
         compression = rim - height
         if compression > best:
-            best, normal, spread, profile_rate = compression, up.copy(), sin_tilt, rate
+            best, normal, spread, profile_rate = compression, floor_normal, sin_tilt, rate
     if normal is None:
         return None
     cos_tilt = float(normal @ axle)

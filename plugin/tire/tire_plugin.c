@@ -48,6 +48,7 @@ enum {
   ATTR_LUG_COUNT,
   ATTR_LUG_DEPTH,
   ATTR_FLOOR_INTERPOLATION,
+  ATTR_FLOOR_NORMAL,
   TIRE_NATTRIBUTE
 };
 
@@ -185,6 +186,18 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "line, a line at v / (grid spacing) in the loads that the sampled floor does not have, "
     "and whose d(delta)/dt leaves the floor's slope out (the plugin until 2026-12); planes "
     "are the same under both"},
+  [ATTR_FLOOR_NORMAL] = {
+    "floor_normal", "", SKIDSTEER_TIRE_CHOICE, NAN, "vertical", 0, 0, 0, 0, 0,
+    "vertical surface", "",
+    "use vertical (default) or surface; surface needs floor_interpolation=\"cubic\"",
+    "the contact normal on a heightfield floor: vertical, the floor geom's up whatever "
+    "the slope under the wheel (the normal force carries no fore-aft or sideways part "
+    "on a bump; the plugin until 2026-12); surface, the cubic floor's own normal under "
+    "the wheel centre (up - dh/dx x - dh/dy y, normalised), so the normal force pushes "
+    "back on a rising slope and the friction acts in the floor's tangent plane, as on a "
+    "tilted plane; compression measured along it.  A heightfield read as MuJoCo's "
+    "triangles has no normal here (floor_interpolation=\"triangles\" with surface is "
+    "refused); planes are the same under both"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -251,6 +264,7 @@ typedef struct {
   int nfloor;
   int* floor_geom;     // plane and hfield geoms of the world body
   int cubic_floor;     // 1: heightfields as cubic B-splines (floor_interpolation)
+  int surface_normal;  // 1: a cubic heightfield's contact normal is its own (floor_normal)
   mjtNum** floor_spline;  // per floor: its heightfield's B-spline coefficients (elevation,
                           // m; nrow x ncol, row-major as hfield_data), NULL for a plane or
                           // with floor_interpolation="triangles"
@@ -362,7 +376,8 @@ static int read_config(const mjModel* m, int instance, tireConfig* cfg) {
 
 
 static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radius,
-                       int* implicit, int* lug_count, mjtNum* lug_depth, int* cubic_floor) {
+                       int* implicit, int* lug_count, mjtNum* lug_depth, int* cubic_floor,
+                       int* surface_normal) {
   tireConfig cfg;
   if (read_config(m, instance, &cfg)) return -1;
   const skidsteerTireFloor* floor = &kFloors[cfg.choice[ATTR_FLOOR]];
@@ -393,6 +408,14 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   *lug_count = (int)cfg.value[ATTR_LUG_COUNT];
   *lug_depth = cfg.value[ATTR_LUG_DEPTH];
   *cubic_floor = cfg.choice[ATTR_FLOOR_INTERPOLATION] == 0;
+  *surface_normal = cfg.choice[ATTR_FLOOR_NORMAL] == 1;
+  if (*surface_normal && !*cubic_floor) {
+    mju_warning("%s instance '%s': attribute floor_normal=\"surface\" is invalid with "
+                "floor_interpolation=\"triangles\": MuJoCo's triangles give the plugin no "
+                "normal (use floor_interpolation=\"cubic\")", TIRE_PLUGIN_NAME,
+                instance_name(m, instance));
+    return -1;
+  }
   return 0;
 }
 
@@ -723,14 +746,10 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
     int f = ti->floor_geom[i];
     const mjtNum* mat = d->geom_xmat + 9 * f;
     mjtNum up[3] = {mat[2], mat[5], mat[8]};
-    mjtNum cos_tilt = mju_dot3(up, axle);
-    // |up - (up.axle) axle|: 1 for an upright wheel, 0 for one lying flat
-    mjtNum sin_tilt = mju_sqrt(mjMAX(0, 1 - cos_tilt * cos_tilt));
-    if (sin_tilt < 1e-9) continue;  // wheel lying flat: no rolling contact
-    // distance from the wheel center down to its lowest rim point, along up
-    mjtNum rim = radius * sin_tilt;
-
-    mjtNum height, rate = 0;
+    // the contact normal: the floor's up, or on a cubic heightfield with
+    // floor_normal="surface" its own normal under the centre (surface below)
+    mjtNum floor_normal[3] = {up[0], up[1], up[2]};
+    mjtNum height, rate = 0, surface = 0;
     if (m->geom_type[f] == mjGEOM_PLANE) {
       mjtNum rel[3];
       mju_sub3(rel, center, d->geom_xpos + 3 * f);
@@ -746,17 +765,34 @@ static int wheel_contact(const mjModel* m, const mjData* d, const tireInstance* 
         continue;  // not above this heightfield
       }
       height = mju_dot3(rel, up) - elevation;
-      point_velocity(m, d, body, center, v_center);
-      rate = slope[0] * mju_dot3(v_center, x_axis) + slope[1] * mju_dot3(v_center, y_axis);
+      if (ti->surface_normal) {
+        // n = (up - h_x x - h_y y) / |.|; the centre's distance to the floor's tangent
+        // plane is height n.up; the floor's rise under the moving centre is in the
+        // approach along n (-v.n), so no separate profile rate
+        mju_addToScl3(floor_normal, x_axis, -slope[0]);
+        mju_addToScl3(floor_normal, y_axis, -slope[1]);
+        mju_normalize3(floor_normal);
+        surface = 1;
+      } else {
+        point_velocity(m, d, body, center, v_center);
+        rate = slope[0] * mju_dot3(v_center, x_axis) + slope[1] * mju_dot3(v_center, y_axis);
+      }
     } else {
       mjtNum down[3] = {-up[0], -up[1], -up[2]};
       height = mj_rayHfield(m, d, f, center, down, NULL);
       if (height < 0) continue;  // not above this heightfield
     }
+    mjtNum cos_tilt = mju_dot3(floor_normal, axle);
+    // |n - (n.axle) axle|: 1 for an upright wheel, 0 for one lying flat
+    mjtNum sin_tilt = mju_sqrt(mjMAX(0, 1 - cos_tilt * cos_tilt));
+    if (sin_tilt < 1e-9) continue;  // wheel lying flat: no rolling contact
+    // distance from the wheel center down to its lowest rim point, along n
+    mjtNum rim = radius * sin_tilt;
+    if (surface) height *= mju_dot3(floor_normal, up);
     mjtNum compression = rim - height;
     if (compression > best) {
       best = compression;
-      mju_copy3(normal, up);
+      mju_copy3(normal, floor_normal);
       spread = sin_tilt;
       profile_rate = rate;
       found = 1;
@@ -840,7 +876,7 @@ static int tire_init(const mjModel* m, mjData* d, int instance) {
   }
   mjtNum radius_attr = 0;
   if (read_params(m, instance, &ti->params, &radius_attr, &ti->implicit, &ti->lug_count,
-                  &ti->lug_depth, &ti->cubic_floor) ||
+                  &ti->lug_depth, &ti->cubic_floor, &ti->surface_normal) ||
       find_wheels_and_floor(m, instance, radius_attr, ti) || make_floor_splines(m, ti)) {
     free_instance(ti);
     return -1;

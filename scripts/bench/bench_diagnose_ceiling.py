@@ -48,6 +48,7 @@ from bench_diagnose_generalisation import (FIXED, _outcome, case_of, fraction,  
                                            generate, newest_rows)
 from skidsteer.data.dataset import read_dataset  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
+from skidsteer.diagnosis.causes import ground_roughness  # noqa: E402
 from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
                                             model_factory, simulate_groups)
 from skidsteer.diagnosis.fit import (MIN_GAIN, _score, base_group_errors, gain,  # noqa: E402
@@ -295,12 +296,17 @@ def main(argv=None) -> int:
         # the misses first (what the ceiling is to explain), then the newest rows
         todo.sort(key=lambda c: (_outcome(newest[c["case"]]) != "missed", -c["seed"]))
         for i, case in enumerate(todo):
+            # the row's rough floor, as its data and fits had it (rows without the
+            # field: the plugin's default)
+            ground_roughness.FLOOR_NORMAL = newest[case["case"]].get("rough_floor_normal")
             try:
                 result = ceiling_case(case, newest[case["case"]], args.out, args.trials,
                                       args.duration, args.threads)
             except Exception as err:  # one broken case does not sink the run
                 print(f"{case['case']}: failed: {err!r}", flush=True)
                 continue
+            finally:
+                ground_roughness.FLOOR_NORMAL = None
             with args.ceiling.open("a") as f:
                 f.write(json.dumps(result) + "\n")
             print(f"[{i + 1}/{len(todo)}] {case['case']} {case['effect']}: held-out error "

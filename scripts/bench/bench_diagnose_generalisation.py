@@ -62,6 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import skidsteer  # noqa: E402,F401
 from _machine import machine  # noqa: E402
 from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
+from skidsteer.diagnosis.causes import ground_roughness  # noqa: E402
 from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS  # noqa: E402
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
@@ -161,17 +162,23 @@ def case_of(row: dict) -> dict:
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
              search_starts: int = SEARCH_STARTS, timestep: float | None = None,
-             model_spread: bool = False) -> dict:
+             model_spread: bool = False, rough_floor_normal: str | None = None) -> dict:
     """The case's row: its dataset generated and diagnosed, both at `timestep` (None: the
     model's own step, as every committed row); model_spread: diagnose's (False in every
-    committed row)."""
+    committed row); rough_floor_normal: the tire plugin's floor_normal on
+    ground_roughness's floor, the data's and the fits' (None: the plugin's default, as
+    every committed row)."""
     data = out / "datasets" / case["case"]
-    started = time.perf_counter()
-    truth = generate(case, out, trials, duration_s, threads, timestep)
-    generated_s = time.perf_counter() - started
-    result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
-                      cache_dir=out / "simulations", search_starts=search_starts,
-                      model_spread=model_spread)
+    ground_roughness.FLOOR_NORMAL = rough_floor_normal
+    try:
+        started = time.perf_counter()
+        truth = generate(case, out, trials, duration_s, threads, timestep)
+        generated_s = time.perf_counter() - started
+        result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
+                          cache_dir=out / "simulations", search_starts=search_starts,
+                          model_spread=model_spread)
+    finally:
+        ground_roughness.FLOOR_NORMAL = None
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
@@ -203,7 +210,9 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "timestep_s": timestep,
             # the comparison's scale held the base model's start-to-start spread (issue
             # 18's option (d), asked of the draws 1177-1215 and the nulls)
-            "model_spread": model_spread}
+            "model_spread": model_spread,
+            # the rough floor's contact normal (None: the plugin's default, vertical)
+            "rough_floor_normal": rough_floor_normal}
 
 
 def _recovery(row: dict) -> str:
@@ -415,6 +424,10 @@ def main(argv=None) -> int:
                     "one step)")
     ap.add_argument("--model-spread", action="store_true", help="diagnose with "
                     "--model-spread (rows of one results file share the setting)")
+    ap.add_argument("--rough-floor-normal", choices=("vertical", "surface"),
+                    help="the tire plugin's floor_normal on ground_roughness's floor, in the "
+                    "data and in the fits (default: the plugin's, vertical; rows of one "
+                    "results file share the setting)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -438,7 +451,9 @@ def main(argv=None) -> int:
         # a results file holds rows of one step and one scale (rows from before a field
         # was recorded read as the default: None, False)
         for field, wanted, read in (("timestep_s", args.timestep, lambda v: v),
-                                    ("model_spread", args.model_spread, bool)):
+                                    ("model_spread", args.model_spread, bool),
+                                    ("rough_floor_normal", args.rough_floor_normal,
+                                     lambda v: v)):
             other = {read(r.get(field)) for r in done.values()} - {wanted}
             if other:
                 ap.error(f"{results} holds rows with {field} {sorted(map(str, other))}, not "
@@ -448,7 +463,8 @@ def main(argv=None) -> int:
                     args.only and case["case"] not in args.only):
                 continue
             row = run_case(case, args.out, args.trials, args.duration, args.threads,
-                           args.search_starts, args.timestep, args.model_spread)
+                           args.search_starts, args.timestep, args.model_spread,
+                           args.rough_floor_normal)
             done[row["case"]] = row
             with open(results, "a") as f:
                 f.write(json.dumps(row) + "\n")

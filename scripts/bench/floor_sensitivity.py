@@ -19,6 +19,8 @@ standard deviation in that band (a shift within it is the model's scatter, not t
 floor's).
 
     python scripts/bench/floor_sensitivity.py --floors carpet concrete --rates 10 20 30
+    python scripts/bench/floor_sensitivity.py --height-rms 0.00035 --floor-normal surface \
+        --reference vertical    # what the floor's own contact normal moves
 
 Costs floors x rates x (1 + realisations) x starts simulations of 20 s.
 """
@@ -54,15 +56,18 @@ def log_powers(floor: str, omega_deg_s: float, edit, starts: int, threads: int,
 
 
 def rough_floor(values: dict, realisation: int, samples_per_correlation: int,
-                interpolation: str | None):
+                interpolation: str | None, normal: str | None = None):
     """The edit that lays ground_roughness's floor of these parameters and realisation,
     sampled samples_per_correlation times per correlation length, under a tire plugin
-    whose floor_interpolation is `interpolation` (None: the plugin's default)."""
+    whose floor_interpolation is `interpolation` and floor_normal `normal` (None: the
+    plugin's default)."""
     def edit(spec):
         ground_roughness.apply(spec, values, realisation,
                                samples_per_correlation=samples_per_correlation)
-        if interpolation is not None:
-            tire.configure(spec, {"floor_interpolation": interpolation})
+        config = {"floor_interpolation": interpolation, "floor_normal": normal}
+        config = {k: v for k, v in config.items() if v is not None}
+        if config:
+            tire.configure(spec, config)
     return edit
 
 
@@ -112,6 +117,14 @@ def main(argv=None) -> int:
     ap.add_argument("--floor-interpolation", choices=("cubic", "triangles"),
                     help="the tire plugin's floor_interpolation on the rough floor "
                     "(default: the plugin's, cubic)")
+    ap.add_argument("--floor-normal", choices=("vertical", "surface"),
+                    help="the tire plugin's floor_normal on the rough floor (default: the "
+                    "plugin's, vertical)")
+    ap.add_argument("--reference", choices=("flat", "vertical"), default="flat",
+                    help="what the rough floor is compared with: the flat floor (default) "
+                    "or, realisation by realisation, the same rough floor under the "
+                    "vertical normal (what --floor-normal surface moves; printed per "
+                    "realisation)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--cache", type=Path, help="keep the simulations here (a rerun reuses "
                     "them)")
@@ -125,24 +138,37 @@ def main(argv=None) -> int:
         ap.error(f"--samples-per-correlation {args.samples_per_correlation}: at least 1")
     interpolation = (args.floor_interpolation
                      or tire.attributes()["floor_interpolation"].default)
+    normal = args.floor_normal or tire.attributes()["floor_normal"].default
+    if args.reference == "vertical" and normal == "vertical":
+        ap.error("--reference vertical compares with the vertical normal: give "
+                 "--floor-normal surface")
     rough = causes.get("ground_roughness")
     values = rough.parameters(args.height_rms,
                               {CORRELATION_LENGTH.name: CORRELATION_LENGTH.value})
     for floor in args.floors:
         for omega in args.rates:
+            def powers(r, normal_of_floor):
+                return log_powers(floor, float(omega),
+                                  rough_floor(values, r, args.samples_per_correlation,
+                                              args.floor_interpolation, normal_of_floor),
+                                  args.starts, args.threads, args.timestep, cache)
+
+            row = {"floor": floor, "omega_deg_s": float(omega),
+                   "height_rms_m": args.height_rms, "timestep": args.timestep,
+                   "starts": args.starts,
+                   "samples_per_correlation": args.samples_per_correlation,
+                   "floor_interpolation": interpolation, "floor_normal": normal,
+                   "reference": args.reference}
+            if args.reference == "vertical":
+                for r in range(args.realisations):
+                    print(json.dumps({**row, "realisation": r,
+                                      **shift(powers(r, "vertical"), [powers(r, normal)])}),
+                          flush=True)
+                continue
             flat = log_powers(floor, float(omega), None, args.starts, args.threads,
                               args.timestep, cache)
-            floors = [log_powers(floor, float(omega),
-                                 rough_floor(values, r, args.samples_per_correlation,
-                                             args.floor_interpolation),
-                                 args.starts, args.threads, args.timestep, cache)
-                      for r in range(args.realisations)]
-            print(json.dumps({"floor": floor, "omega_deg_s": float(omega),
-                              "height_rms_m": args.height_rms, "timestep": args.timestep,
-                              "starts": args.starts,
-                              "samples_per_correlation": args.samples_per_correlation,
-                              "floor_interpolation": interpolation,
-                              **shift(flat, floors)}), flush=True)
+            floors = [powers(r, args.floor_normal) for r in range(args.realisations)]
+            print(json.dumps({**row, **shift(flat, floors)}), flush=True)
     return 0
 
 

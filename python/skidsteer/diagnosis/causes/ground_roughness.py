@@ -13,6 +13,7 @@ import numpy as np
 from scipy import ndimage
 
 from skidsteer.diagnosis.causes import Cause, NotApplicable, Parameter
+from skidsteer.robot import tire
 
 HEIGHT_RMS = Parameter(
     "height_rms_m", 2e-5, 2e-3, 2e-4, log=True,
@@ -37,6 +38,12 @@ GRID_PER_CORRELATION = 4  # samples per correlation length (at least)
 # length compare one floor, not unrelated ones (until a86cf90 the noise was drawn on a
 # grid of correlation length / 4, so every correlation length was another floor).
 FINE_STEP_M = CORRELATION_LENGTH.low / GRID_PER_CORRELATION
+# The tire plugin's floor_normal on this floor: None leaves the plugin's default
+# ("vertical": a bump loads a wheel but never pushes it back); "surface" makes the
+# floor's own slope tilt the contact normal (plugin/tire/README.md).  Every committed
+# row of the benchmarks is on the default; bench_diagnose_generalisation.py
+# --rough-floor-normal sets it for a run, the data's floor and the fits' alike.
+FLOOR_NORMAL: str | None = None
 
 
 def fine_intervals(half_size_m: float) -> int:
@@ -84,6 +91,8 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_
     floor.type = mujoco.mjtGeom.mjGEOM_HFIELD
     floor.hfieldname = "rough_floor"
     floor.pos = [floor.pos[0], floor.pos[1], floor.pos[2] + low]
+    if FLOOR_NORMAL is not None:
+        tire.configure(spec, {"floor_normal": FLOOR_NORMAL})
 
 
 # assumed: 4 levels per parameter (16 start points, the frame's design budget), at the
