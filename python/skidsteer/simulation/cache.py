@@ -13,7 +13,11 @@ here under a key made of everything that determines it:
 - the numeric platform (``numeric_platform``): the C library and the CPU features
   its libm picks its sin/cos/exp/pow by.  MuJoCo calls them every step, and the
   stick-slip swivel amplifies their last-bit differences into different runs, so
-  an entry made on another platform is another simulation.
+  an entry made on another platform is another simulation.  And the kernels of
+  the BLAS numpy and scipy bundle (OpenBLAS picks them by CPU model, not by
+  feature flag: SkylakeX on an AVX-512 Intel Xeon, Haswell on an AMD EPYC with the
+  same flags), whose last bits reach the features (a 10 s swivel's features hash
+  differently under OPENBLAS_CORETYPE=Haswell on one machine).
 
 An entry holds what the fits read: the feature vector and the mean yaw rate (a
 few hundred bytes); the time series are not kept (a diagnosis's worth would be
@@ -33,6 +37,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import scipy.linalg  # noqa: F401  (its BLAS loaded beside numpy's: blas_kernels reads both)
+from threadpoolctl import threadpool_info
 
 from skidsteer.data.files import write_atomically
 from skidsteer.robot import plugin
@@ -64,7 +70,20 @@ def numeric_platform() -> str:
         "/".join(LIBM_CPU_FEATURES)
     tunables = os.environ.get("GLIBC_TUNABLES")
     return (f"{libc or 'libc'} {version or '?'}, {platform.machine()}, {features}"
-            + (f", GLIBC_TUNABLES={tunables}" if tunables else ""))
+            + (f", GLIBC_TUNABLES={tunables}" if tunables else "") + f", {blas_kernels()}")
+
+
+def blas_kernels() -> str:
+    """The BLAS libraries numpy and scipy load and the kernels each picked (e.g. "blas
+    openblas SkylakeX"), read by threadpoolctl.  OpenBLAS chooses its kernels by CPU
+    model (OPENBLAS_CORETYPE overrides it): two machines whose libm features agree can
+    still differ here, and their features in the last bits (issue 21, stop 56: draw
+    1201's base error 2.8047478189428166 on an Intel Xeon, SkylakeX, and
+    2.804747818942987 on an AMD EPYC; 2.8047478189429844 on the Xeon with
+    OPENBLAS_CORETYPE=Haswell, the kernels OpenBLAS gives Zen)."""
+    kernels = sorted({f"{i.get('internal_api', '?')} {i.get('architecture') or '?'}"
+                      for i in threadpool_info() if i.get("user_api") == "blas"})
+    return "blas " + (" ".join(kernels) if kernels else "none found")
 
 
 @functools.lru_cache(maxsize=None)
