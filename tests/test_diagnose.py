@@ -110,10 +110,11 @@ def test_a_rough_floor_is_not_fitted_to_runs_that_drive_off_it():
         "ground_roughness"]
 
 
-def test_the_rough_floor_leaves_the_contact_normal_to_the_plugin_unless_set(monkeypatch):
-    # ground_roughness.FLOOR_NORMAL (bench_diagnose_generalisation.py --rough-floor-normal)
-    # reaches the tire plugin of the model it edits; unset, the cause leaves the plugin's
-    # default (every committed row), and the benchmark's run_case puts it back after a row
+def test_the_rough_floor_leaves_the_contact_normal_to_the_plugin_unless_set():
+    # ground_roughness.FLOOR_NORMAL (bench_diagnose_generalisation.py --rough-floor-normal,
+    # through contact_normal) reaches the tire plugin of the model it edits; unset, the
+    # cause leaves the plugin's default (every committed row), and contact_normal puts
+    # it back after the block
     from skidsteer.diagnosis.causes import ground_roughness
     from skidsteer.robot import load_spec, tire
 
@@ -127,8 +128,10 @@ def test_the_rough_floor_leaves_the_contact_normal_to_the_plugin_unless_set(monk
 
     assert ground_roughness.FLOOR_NORMAL is None
     assert normal_of_rough_floor() is None
-    monkeypatch.setattr(ground_roughness, "FLOOR_NORMAL", "surface")
-    assert normal_of_rough_floor() == "surface"
+    with ground_roughness.contact_normal("surface"):
+        assert normal_of_rough_floor() == "surface"
+    assert ground_roughness.FLOOR_NORMAL is None
+    assert normal_of_rough_floor() is None
 
 
 def test_unknown_cause_and_parameter_are_named():

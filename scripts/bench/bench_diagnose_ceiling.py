@@ -298,15 +298,14 @@ def main(argv=None) -> int:
         for i, case in enumerate(todo):
             # the row's rough floor, as its data and fits had it (rows without the
             # field: the plugin's default)
-            ground_roughness.FLOOR_NORMAL = newest[case["case"]].get("rough_floor_normal")
             try:
-                result = ceiling_case(case, newest[case["case"]], args.out, args.trials,
-                                      args.duration, args.threads)
+                with ground_roughness.contact_normal(
+                        newest[case["case"]].get("rough_floor_normal")):
+                    result = ceiling_case(case, newest[case["case"]], args.out, args.trials,
+                                          args.duration, args.threads)
             except Exception as err:  # one broken case does not sink the run
                 print(f"{case['case']}: failed: {err!r}", flush=True)
                 continue
-            finally:
-                ground_roughness.FLOOR_NORMAL = None
             with args.ceiling.open("a") as f:
                 f.write(json.dumps(result) + "\n")
             print(f"[{i + 1}/{len(todo)}] {case['case']} {case['effect']}: held-out error "

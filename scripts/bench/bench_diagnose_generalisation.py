@@ -67,7 +67,7 @@ from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS  # noqa: E402
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
 from skidsteer.reports.diagnosis import diagnose  # noqa: E402
 from skidsteer.reports.markdown import table  # noqa: E402
-from skidsteer.robot import Setup  # noqa: E402
+from skidsteer.robot import Setup, tire  # noqa: E402
 from skidsteer.simulation.cache import code_fingerprint  # noqa: E402
 
 FLOORS = ("concrete", "tile", "carpet")  # the plugin's floors (Sec. 3.3 and assumed)
@@ -169,16 +169,13 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
     ground_roughness's floor, the data's and the fits' (None: the plugin's default, as
     every committed row)."""
     data = out / "datasets" / case["case"]
-    ground_roughness.FLOOR_NORMAL = rough_floor_normal
-    try:
+    with ground_roughness.contact_normal(rough_floor_normal):
         started = time.perf_counter()
         truth = generate(case, out, trials, duration_s, threads, timestep)
         generated_s = time.perf_counter() - started
         result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
                           cache_dir=out / "simulations", search_starts=search_starts,
                           model_spread=model_spread)
-    finally:
-        ground_roughness.FLOOR_NORMAL = None
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
@@ -424,7 +421,7 @@ def main(argv=None) -> int:
                     "one step)")
     ap.add_argument("--model-spread", action="store_true", help="diagnose with "
                     "--model-spread (rows of one results file share the setting)")
-    ap.add_argument("--rough-floor-normal", choices=("vertical", "surface"),
+    ap.add_argument("--rough-floor-normal", choices=tire.attributes()["floor_normal"].choices,
                     help="the tire plugin's floor_normal on ground_roughness's floor, in the "
                     "data and in the fits (default: the plugin's, vertical; rows of one "
                     "results file share the setting)")

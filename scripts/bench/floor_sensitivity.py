@@ -63,11 +63,10 @@ def rough_floor(values: dict, realisation: int, samples_per_correlation: int,
     plugin's default)."""
     def edit(spec):
         ground_roughness.apply(spec, values, realisation,
-                               samples_per_correlation=samples_per_correlation)
-        config = {"floor_interpolation": interpolation, "floor_normal": normal}
-        config = {k: v for k, v in config.items() if v is not None}
-        if config:
-            tire.configure(spec, config)
+                               samples_per_correlation=samples_per_correlation,
+                               floor_normal=normal)
+        if interpolation is not None:
+            tire.configure(spec, {"floor_interpolation": interpolation})
     return edit
 
 
@@ -117,7 +116,7 @@ def main(argv=None) -> int:
     ap.add_argument("--floor-interpolation", choices=("cubic", "triangles"),
                     help="the tire plugin's floor_interpolation on the rough floor "
                     "(default: the plugin's, cubic)")
-    ap.add_argument("--floor-normal", choices=("vertical", "surface"),
+    ap.add_argument("--floor-normal", choices=tire.attributes()["floor_normal"].choices,
                     help="the tire plugin's floor_normal on the rough floor (default: the "
                     "plugin's, vertical)")
     ap.add_argument("--reference", choices=("flat", "vertical"), default="flat",

@@ -8,6 +8,8 @@ correlation length (surface).  It covers the square the robot swivels and drives
 in.
 """
 
+import contextlib
+
 import mujoco
 import numpy as np
 from scipy import ndimage
@@ -42,8 +44,21 @@ FINE_STEP_M = CORRELATION_LENGTH.low / GRID_PER_CORRELATION
 # ("vertical": a bump loads a wheel but never pushes it back); "surface" makes the
 # floor's own slope tilt the contact normal (plugin/tire/README.md).  Every committed
 # row of the benchmarks is on the default; bench_diagnose_generalisation.py
-# --rough-floor-normal sets it for a run, the data's floor and the fits' alike.
+# --rough-floor-normal sets it for a run (contact_normal), the data's floor and the
+# fits' alike.
 FLOOR_NORMAL: str | None = None
+
+
+@contextlib.contextmanager
+def contact_normal(normal: str | None):
+    """FLOOR_NORMAL set to `normal` inside the block (every floor this cause lays, the
+    data's and the fits'), back to the plugin's default after it."""
+    global FLOOR_NORMAL
+    FLOOR_NORMAL = normal
+    try:
+        yield
+    finally:
+        FLOOR_NORMAL = None
 
 
 def fine_intervals(half_size_m: float) -> int:
@@ -76,7 +91,10 @@ def surface(height_rms_m: float, correlation_length_m: float, half_size_m: float
 
 
 def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_SIZE_M,
-          samples_per_correlation: int = GRID_PER_CORRELATION) -> None:
+          samples_per_correlation: int = GRID_PER_CORRELATION,
+          floor_normal: str | None = None) -> None:
+    """Lays the floor; floor_normal: the tire plugin's on it (None: FLOOR_NORMAL, whose
+    None leaves the plugin's default)."""
     planes = [g for g in spec.worldbody.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
     if len(planes) != 1:
         raise NotApplicable(f"ground_roughness needs one floor plane in the world body, the "
@@ -91,8 +109,9 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0, half_size_m: float = HALF_
     floor.type = mujoco.mjtGeom.mjGEOM_HFIELD
     floor.hfieldname = "rough_floor"
     floor.pos = [floor.pos[0], floor.pos[1], floor.pos[2] + low]
-    if FLOOR_NORMAL is not None:
-        tire.configure(spec, {"floor_normal": FLOOR_NORMAL})
+    normal = floor_normal or FLOOR_NORMAL
+    if normal is not None:
+        tire.configure(spec, {"floor_normal": normal})
 
 
 # assumed: 4 levels per parameter (16 start points, the frame's design budget), at the
