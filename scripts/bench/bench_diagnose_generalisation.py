@@ -209,7 +209,10 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # 18's option (d), asked of the draws 1177-1215 and the nulls)
             "model_spread": model_spread,
             # the rough floor's contact normal (None: the plugin's default, vertical)
-            "rough_floor_normal": rough_floor_normal}
+            "rough_floor_normal": rough_floor_normal,
+            # the swivels proposed to tell two undecided fits apart (diagnosis.next_command;
+            # from stop 57 on: scripts/bench/extra_command.py records the one proposed first)
+            "next_commands": result["next_commands"]}
 
 
 def _recovery(row: dict) -> str:

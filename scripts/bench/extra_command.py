@@ -19,6 +19,15 @@ runs score lower than at the truth) are what it was written for.
 The second generates the draw's data and diagnoses it at 0.05 ms (issue 18's question:
 1211, a null, fails at the default 0.1 ms, whose 30 deg/s on carpet has two regimes).
 
+    python scripts/bench/extra_command.py 1214 --propose first --out /tmp/next
+
+takes the extra command from diagnose itself (diagnosis.next_command): the draw's data
+diagnosed with its row's two best causes as the only candidates (their fits are the
+full diagnosis's: each cause is fitted on its own, and these two are its contenders),
+and the swivel that diagnosis proposes to tell them apart (`first`; `last`, the one it
+ranks last, is the control: does any extra command do as well?) is added.  The row's
+"proposal" holds what the two-cause diagnosis said.
+
 Prints the benchmark's row for the new dataset (bench_diagnose_generalisation.run_case:
 everything the verdict rules read) as one JSON line and appends it to OUT/rows.jsonl.
 Costs a diagnosis: of 4 commands 1992-2257 s (1170 and 1191 with another job on the
@@ -51,11 +60,27 @@ def main(argv=None) -> int:
                     help="the benchmark rows the draw is read from (default: the committed)")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--propose", choices=("first", "last"),
+                    help="add the swivel diagnose proposes to tell the row's two best causes "
+                         "apart (first) or the one it ranks last (the control)")
     args = ap.parse_args(argv)
     rows = generalisation.newest_rows(args.results)
     if f"draw-{args.seed}" not in rows:
         ap.error(f"no row draw-{args.seed} in {args.results}")
     drawn = generalisation.case_of(rows[f"draw-{args.seed}"])
+    if args.propose and args.extra_deg_s is not None:
+        ap.error("--propose chooses the extra command: give none")
+    proposal = None
+    if args.propose:
+        proposal = proposed(rows[f"draw-{args.seed}"], drawn, args)
+        if not proposal["next_commands"]:
+            print(f"draw {args.seed}: diagnose with {' and '.join(proposal['pair'])} proposes "
+                  f"no command ({proposal['verdict']}: {proposal['reason']})")
+            return 1
+        chosen = proposal["next_commands"][0 if args.propose == "first" else -1]
+        args.extra_deg_s = chosen["omega_deg_s"]
+        print(f"draw {args.seed}: {args.propose} proposal {args.extra_deg_s:g} deg/s "
+              f"(separation {chosen['separation']:.2f})")
     if args.extra_deg_s is None and args.timestep is None:
         ap.error("give an extra command, a --timestep, or both")
     if args.extra_deg_s in drawn["omegas"]:
@@ -70,11 +95,26 @@ def main(argv=None) -> int:
     middle = sorted(drawn["omegas"])[1]  # split()'s held-out command with three
     row["held_out_as_drawn"] = any(label.split()[0] == f"v0-w{middle:g}"
                                    for label in row["held_out_groups"])
+    if proposal is not None:
+        row["proposal"] = {**proposal, "taken": args.propose}
     print(json.dumps(row))
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "rows.jsonl", "a") as f:
         f.write(json.dumps(row) + "\n")
     return 0
+
+
+def proposed(row: dict, drawn: dict, args) -> dict:
+    """What diagnose proposes for the draw: its data diagnosed with the row's two best
+    causes as the only candidates (the verdict, the reason and next_commands)."""
+    pair = [f["cause"] for f in row["ranking"][:2]]
+    generalisation.generate(drawn, args.out, 3, 20.0, args.threads, args.timestep)
+    result = generalisation.diagnose(args.out / "datasets" / drawn["case"], None,
+                                     candidates=pair, nthread=args.threads, progress=True,
+                                     timestep=args.timestep,
+                                     cache_dir=args.out / "simulations")
+    return {"pair": pair, "verdict": result["verdict"], "reason": result["reason"],
+            "next_commands": result["next_commands"], "diagnose_s": result["wall_time_s"]}
 
 
 if __name__ == "__main__":

@@ -3,7 +3,8 @@
 ``comparison``: measured and simulated runs reduced to one feature vector and
 scored against the trials' spread; ``causes``: candidate physical extensions of
 the model, one module each; ``fit``: each candidate fitted, ranked and judged
-(``diagnose_observed``); ``synth``: datasets with a hidden effect, for tests.
+(``diagnose_observed``); ``next_command``: the swivel to record when two fits are
+undecided; ``synth``: datasets with a hidden effect, for tests.
 reports.diagnosis reads a dataset through these and writes the outputs.
 """
 

@@ -48,6 +48,8 @@ from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (TRIALS_SCALE, Comparison, Observed, Simulated,
                                             model_factory, require_spread, simulate_groups)
+from skidsteer.diagnosis.next_command import (proposal_note, separating_commands,
+                                              undecided_pair)
 from skidsteer.simulation.sensor_chain import SensorChain
 
 GRID_POINTS = 5  # across the prior, at the centres of 5 equal slices (log or linear)
@@ -998,6 +1000,9 @@ class Diagnosis:
     reason: str
     pair: dict | None = None  # fit_pair of the two best, when there are two
     group_errors: np.ndarray | None = None  # base_group_errors: the base model's, per group
+    # next_command.separating_commands of the two fits the data leave undecided, best
+    # first (empty when a cause is named or no pair is undecided: undecided_pair)
+    next_commands: list[dict] = dataclasses.field(default_factory=list)
 
     @property
     def reference(self) -> Fit | None:
@@ -1025,6 +1030,8 @@ class Diagnosis:
                 "unprobed": dict(best.unprobed),
                 "left": self.comparison.discrepancies(best.simulated.features)},
             "best_pair": self.pair,
+            # what to record to tell the two undecided fits apart (next_command)
+            "next_commands": self.next_commands,
             "ranking": [{"cause": f.cause, "held_out_error": f.held_out_error,
                          "train_error": f.train_error, "score": f.score, "removed": f.removed,
                          "parameters": f.parameters, "fitted": f.fitted,
@@ -1125,7 +1132,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
                       timestep: float | None = None, chain: SensorChain = SensorChain(),
                       backend, progress: Callable[[int], None] | None = None, cache=None,
                       signals: bool = True, search_starts: int = SEARCH_STARTS,
-                      model_spread: bool = False) -> Diagnosis:
+                      model_spread: bool = False, next_command: bool = True) -> Diagnosis:
     """Simulates the base model on every command of the measured runs, and, if it
     disagrees with them, fits every candidate cause on the training runs and decides.
 
@@ -1137,7 +1144,10 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     starts a fit's training error is the median over (SEARCH_STARTS).  model_spread:
     every error is read against the trials' spread and the base model's own
     start-to-start spread together (Comparison.with_model_spread; default: the trials'
-    alone).
+    alone).  next_command: when two fits each remove most of the held-out discrepancy and
+    none is named (next_command.undecided_pair), simulate both on the swivels the dataset
+    lacks and propose the one that tells them apart (Diagnosis.next_commands; the reason
+    says it).
     """
     if not 1 <= search_starts <= STARTS:
         raise ValueError(f"search_starts={search_starts}: must be 1 to {STARTS}")
@@ -1187,8 +1197,15 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     if pair is not None and pair["better_than_best"] and result != "explained":
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
                    f"{pair['held_out_error']:.2f}): two effects may be at work")
+    undecided = undecided_pair(fits, named, base_held, Z_CONSISTENT, MIN_GAIN)
+    proposals = []
+    if next_command and undecided is not None:
+        proposals = separating_commands(*undecided, comparison, groups, observed.duration_s,
+                                        chain, backend, cache, progress)
+        reason += proposal_note(proposals, *undecided, Z_CONSISTENT)
     found = Diagnosis(observed, comparison, train, held, base, base_error, base_held, base_train,
-                      noise, fits, not_applicable, result, named, reason, pair, group_errors)
+                      noise, fits, not_applicable, result, named, reason, pair, group_errors,
+                      proposals)
     reference = found.reference
     if signals and reference is not None and reference.simulated.accel[0] is None:
         # read from the cache: simulate the fit a report plots again, for its signals

@@ -28,6 +28,7 @@ from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, gro
 from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
                                      holds_out_commands, median_error, over_starts,
                                      simulations_planned)
+from skidsteer.diagnosis.next_command import PROPOSAL_STARTS
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
                                         steady_summary, steady_window)
@@ -72,7 +73,8 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              candidates: list[str] | None = None, nthread: int = 2, progress: bool = True,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
              figures: bool = True, backend=None, cache_dir=None,
-             search_starts: int = SEARCH_STARTS, model_spread: bool = False) -> dict:
+             search_starts: int = SEARCH_STARTS, model_spread: bool = False,
+             next_command: bool = True) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
     extended model to out_dir when given.  Returns the diagnosis.
 
@@ -90,6 +92,9 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
 
     model_spread: read every error against the trials' spread and the base model's own
     start-to-start spread together (diagnosis.comparison.Comparison.with_model_spread).
+
+    next_command: propose the swivel that tells two undecided candidates apart
+    (diagnosis.next_command; simulated only when a diagnosis leaves two).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -110,7 +115,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
         found = diagnose_observed(observed, names, timestep=timestep, chain=chain,
                                   backend=backend, progress=bar, cache=stored,
                                   signals=out_dir is not None, search_starts=search_starts,
-                                  model_spread=model_spread)
+                                  model_spread=model_spread, next_command=next_command)
     finally:
         bar.close()
     summary = found.summary()
@@ -438,6 +443,19 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
                   f"error {_fmt(pair['held_out_error'])}, score {_fmt(pair['score'])} "
                   f"({'better' if pair['better_than_best'] else 'no better'} than the best "
                   "cause alone).", ""]
+    if diagnosis["next_commands"]:
+        first, second = diagnosis["next_commands"][0]["predicted"]
+        lines += ["## The next command to record", "",
+                  f"{first} and {second} each remove most of the held-out discrepancy and the "
+                  "recorded commands do not choose between them.  Their fits, simulated on the "
+                  "swivels the dataset lacks (median of "
+                  f"{PROPOSAL_STARTS} starts each), are this far apart (RMS z against the "
+                  f"trials' spread widened by each model's start-to-start scatter; "
+                  f"{Z_CONSISTENT} or more tells them apart):", "",
+                  table(["command", "separation", "feature most apart", first, second],
+                        [[p["command"], _fmt(p["separation"]), p["feature"],
+                          _fmt(p["predicted"][first]), _fmt(p["predicted"][second])]
+                         for p in diagnosis["next_commands"]]), ""]
     lines += [
         "## Gain on held-out runs", "",
         table(["metric", "base model", f"extended ({g['extended_cause'] or '-'})",

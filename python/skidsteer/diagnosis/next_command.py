@@ -1,0 +1,154 @@
+"""The next command to record: where two fitted causes the data cannot tell apart predict
+different measurements.
+
+When a diagnosis names no cause because two candidates each remove most of the
+held-out discrepancy (they "explain the data about equally well", or the training
+and held-out halves prefer different ones), the recorded commands do not separate
+them, and no threshold will.  A new recording can: ``separating_commands``
+simulates both fits, each at its fitted parameters and realisation, on swivels the
+dataset does not have, and scores how far apart their features land, in the units
+every error of the diagnosis is read in (the trials' spread), widened by each
+model's own start-to-start scatter there.  The command that separates them most is
+what to record next; a separation below ``Z_CONSISTENT`` means neither model could
+be told from the other's prediction by the limit the diagnosis reads a discrepancy
+with, so no swivel in the range helps (and the report says so).
+
+This is a prediction of the two fitted models, not of the robot: the robot may be
+neither, and a random geometry's fit carries one realisation of it (its scatter
+across realisations is not in the start-to-start scatter).  Whether recording the
+proposed command resolves a diagnosis is measured on the generalisation benchmark's
+undecided draws (scripts/bench/extra_command.py; docs/diagnose.md, "The next command
+to record").
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from skidsteer.data.dataset import Group
+from skidsteer.diagnosis.comparison import Comparison, simulate_groups
+from skidsteer.features.extract import comparison_feature_names
+
+# the swivel rates a proposal is chosen from, deg/s: the range of the generalisation
+# benchmark's commands and of the regime map (docs/diagnose.md), where the model's swivels
+# have been measured against its own data; above it the model does not reproduce the
+# thesis's wheel hop (Sec. 3.2: hop above 64 deg/s), so its predictions there are not
+# trusted.  Steps of 10 deg/s (assumed: the benchmark's commands are 5 deg/s apart, and
+# neighbouring commands' features differ by about a trial spread there)
+CANDIDATE_RATES_DEG_S = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+# a candidate this close to a recorded command of its setup counts as recorded (half the
+# candidates' step): the data already hold it
+RECORDED_WITHIN_DEG_S = 5.0
+# starts per model and command (comparison.start_state 0..): the median is the
+# prediction, their spread the model's own scatter there (assumed: 3, the fewest that
+# give a median and a spread; the diagnosis's errors take 5, and a proposal costs
+# 2 models x 3 starts x 6 commands = 36 simulations, about a twentieth of a diagnosis)
+PROPOSAL_STARTS = 3
+
+
+def candidate_commands(groups: list[Group],
+                       rates_deg_s=CANDIDATE_RATES_DEG_S) -> list[Group]:
+    """Swivels (v = 0) at `rates_deg_s` on each setup of the recorded groups, without the
+    rates a setup already has (within RECORDED_WITHIN_DEG_S of a recorded command's rate)."""
+    setups = sorted({g.setup for g in groups}, key=lambda s: (str(s.floor), str(s.build),
+                                                               s.mount))
+    out = []
+    for setup in setups:
+        recorded = [abs(g.omega_deg_s) for g in groups if g.setup == setup]
+        out += [Group(0.0, float(w), setup) for w in rates_deg_s
+                if all(abs(w - r) >= RECORDED_WITHIN_DEG_S for r in recorded)]
+    return out
+
+
+def separation(logs_a: np.ndarray, logs_b: np.ndarray, scale: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Per command, how far two models' predictions are apart: the RMS over features of
+    (median_a - median_b) / sqrt(scale^2 + spread_a^2 + spread_b^2), the medians and
+    spreads (standard deviation, ddof 1) over starts.
+
+    logs_a, logs_b: (starts, commands, features), features as the measurement would show
+    them (Comparison.simulated_log); scale: (features,), what a discrepancy is measured in.
+    Returns (separation per command, (commands, features) z of the medians' difference);
+    a feature neither model scores (NaN) does not count.  With one start the spreads are 0.
+    """
+    logs_a, logs_b = np.asarray(logs_a, float), np.asarray(logs_b, float)
+    if logs_a.shape[1:] != logs_b.shape[1:] or logs_a.shape[-1] != np.shape(scale)[-1]:
+        raise ValueError(f"separation: shapes {logs_a.shape}, {logs_b.shape} and scale "
+                         f"{np.shape(scale)} do not match (starts, commands, features)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an unscored feature: NaN
+        def spread(logs):
+            return (np.nan_to_num(np.nanstd(logs, axis=0, ddof=1)) if len(logs) > 1
+                    else np.zeros(logs.shape[1:]))
+        width = np.sqrt(np.asarray(scale, float) ** 2 + spread(logs_a) ** 2
+                        + spread(logs_b) ** 2)
+        z = (np.nanmedian(logs_a, axis=0) - np.nanmedian(logs_b, axis=0)) / width
+        return np.sqrt(np.nanmean(z ** 2, axis=1)), z
+
+
+def separating_commands(first, second, comparison: Comparison, groups: list[Group],
+                        duration_s: float, chain, backend, cache=None, progress=None,
+                        rates_deg_s=CANDIDATE_RATES_DEG_S,
+                        starts: int = PROPOSAL_STARTS) -> list[dict]:
+    """The candidate commands (candidate_commands of the recorded `groups`) ranked by how
+    far apart the two fits (diagnosis.fit.Fit, with their model factories) predict them
+    (separation), best first: each with its label, command, separation, and the feature
+    that differs most with both fits' values there ("predicted": the median over starts, as
+    measured: log10 power, or m/s^2 for the centripetal mean).  Empty when
+    no candidate is left (the data hold every rate)."""
+    commands = candidate_commands(groups, rates_deg_s)
+    if not commands:
+        return []
+    jobs = [(fit.factory, commands) for fit in (first, second) for _ in range(starts)]
+    sims = simulate_groups(jobs, duration_s, chain, backend=backend, progress=progress,
+                           cache=cache, signals=False,
+                           starts=[s for _ in (first, second) for s in range(starts)])
+    logs = np.stack([comparison.simulated_log(s.features) for s in sims])
+    scale = comparison.scale if comparison.scale.ndim == 1 else np.median(comparison.scale,
+                                                                           axis=0)
+    apart, z = separation(logs[:starts], logs[starts:], scale)
+    names = comparison_feature_names()
+    out = []
+    for k, g in enumerate(commands):
+        f = int(np.nanargmax(np.abs(np.nan_to_num(z[k])))) if np.isfinite(apart[k]) else 0
+        out.append({"command": g.label, "v_mps": g.v_mps, "omega_deg_s": g.omega_deg_s,
+                    "separation": float(apart[k]), "feature": names[f],
+                    "feature_z": float(z[k, f]),
+                    "predicted": {first.cause: float(np.nanmedian(logs[:starts, k, f])),
+                                  second.cause: float(np.nanmedian(logs[starts:, k, f]))}})
+    out.sort(key=lambda d: -np.nan_to_num(d["separation"], nan=-1.0))
+    return out
+
+
+def undecided_pair(fits: list, named, base_held: float, limit: float, min_gain: float):
+    """The two fits a new command should tell apart, or None: when no cause is named, the
+    held-out runs show a discrepancy of their own (base_held above `limit`, the diagnosis's
+    Z_CONSISTENT) and the two best fits each remove at least `min_gain` (MIN_GAIN) of it:
+    two candidates explain most of what the data show, and the data do not choose."""
+    if named is not None or len(fits) < 2 or base_held <= limit:
+        return None
+    first, second = fits[0], fits[1]
+    if first.removed < min_gain or second.removed < min_gain:
+        return None
+    return first, second
+
+
+def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
+    """The clause a verdict's reason gains from separating_commands' proposals ('' when
+    there is no candidate): the command to record, or that none in the range would do."""
+    if not proposals:
+        return ""
+    top = proposals[0]
+    if top["separation"] >= limit:
+        a, b = (top["predicted"][c] for c in (first.cause, second.cause))
+        return (f"; to tell {first.cause} from {second.cause}, record a swivel at "
+                f"{top['omega_deg_s']:g} deg/s ({top['command']}): their fits predict it "
+                f"{top['separation']:.1f} RMS z apart ({top['feature']} the most: {a:.2f} "
+                f"against {b:.2f})")
+    rates = [p["omega_deg_s"] for p in proposals]
+    return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack tells "
+            f"{first.cause} from {second.cause} in simulation (at most "
+            f"{top['separation']:.1f} RMS z apart, at {top['omega_deg_s']:g} deg/s, against "
+            f"the {limit} a discrepancy needs)")
