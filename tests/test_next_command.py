@@ -29,14 +29,17 @@ def test_separation_is_the_rms_z_of_the_medians_widened_by_both_spreads():
     b = np.zeros((3, 2, 3))
     b[:, 0, 0] = 1.5  # command 0: feature 0 three scales apart, no spread
     b[:, 1, 2] = [1.0, 2.0, 3.0]  # command 1: feature 2 a median of 2 with spread 1
-    apart, z = separation(a, b, scale)
+    still = np.zeros((2, 3))  # a's starts agree everywhere, and b's on command 0
+    spread_b = still.copy()
+    spread_b[1, 2] = 1.0  # the standard deviation (ddof 1) of b's 1, 2, 3
+    apart, z = separation(a, b, scale, still, spread_b)
     assert z[0] == pytest.approx([-3.0, 0.0, 0.0])
     assert apart[0] == pytest.approx(np.sqrt(9 / 3))
     assert z[1, 2] == pytest.approx(-2.0 / np.sqrt(1.0 + 1.0))
     # symmetric, and zero between a model and itself
-    again, _ = separation(b, a, scale)
+    again, _ = separation(b, a, scale, spread_b, still)
     assert again == pytest.approx(apart)
-    assert separation(a, a, scale)[0] == pytest.approx([0.0, 0.0])
+    assert separation(a, a, scale, still, still)[0] == pytest.approx([0.0, 0.0])
 
 
 def test_separation_ignores_unscored_features_and_checks_shapes():
@@ -45,9 +48,12 @@ def test_separation_ignores_unscored_features_and_checks_shapes():
     b = np.zeros((2, 1, 2))
     b[:, 0, 0] = 2.0
     a[:, 0, 1] = b[:, 0, 1] = np.nan  # neither model scores feature 1
-    assert separation(a, b, scale)[0] == pytest.approx([2.0])
+    still = np.zeros((1, 2))
+    assert separation(a, b, scale, still, still)[0] == pytest.approx([2.0])
     with pytest.raises(ValueError, match="shapes"):
-        separation(a, np.zeros((2, 2, 2)), scale)
+        separation(a, np.zeros((2, 2, 2)), scale, still, still)
+    with pytest.raises(ValueError, match="spreads"):
+        separation(a, b, scale, still, np.zeros((2, 2)))
 
 
 def test_candidates_leave_out_the_rates_a_setup_has_recorded():

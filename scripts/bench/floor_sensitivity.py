@@ -113,7 +113,8 @@ def main(argv=None) -> int:
                     help="the rough floor's grid: samples per correlation length (default: "
                     "the cause's; up to 10 at 5 cm samples the same floor more finely, "
                     "its 5 mm drawing grid)")
-    ap.add_argument("--floor-interpolation", choices=("cubic", "triangles"),
+    ap.add_argument("--floor-interpolation",
+                    choices=tire.attributes()["floor_interpolation"].choices,
                     help="the tire plugin's floor_interpolation on the rough floor "
                     "(default: the plugin's, cubic)")
     ap.add_argument("--floor-normal", choices=tire.attributes()["floor_normal"].choices,

@@ -62,28 +62,30 @@ def candidate_commands(groups: list[Group],
     return out
 
 
-def separation(logs_a: np.ndarray, logs_b: np.ndarray, scale: np.ndarray
+def separation(logs_a: np.ndarray, logs_b: np.ndarray, scale: np.ndarray,
+               spread_a: np.ndarray, spread_b: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """Per command, how far two models' predictions are apart: the RMS over features of
-    (median_a - median_b) / sqrt(scale^2 + spread_a^2 + spread_b^2), the medians and
-    spreads (standard deviation, ddof 1) over starts.
+    (median_a - median_b) / sqrt(scale^2 + spread_a^2 + spread_b^2), the medians over
+    starts.
 
     logs_a, logs_b: (starts, commands, features), features as the measurement would show
-    them (Comparison.simulated_log); scale: (features,), what a discrepancy is measured in.
-    Returns (separation per command, (commands, features) z of the medians' difference);
-    a feature neither model scores (NaN) does not count.  With one start the spreads are 0.
+    them (Comparison.simulated_log); scale: (features,), what a discrepancy is measured in;
+    spread_a, spread_b: (commands, features), each model's start-to-start spread
+    (Comparison.start_spread of the same simulations).  Returns (separation per command,
+    (commands, features) z of the medians' difference); a feature neither model scores
+    (NaN) does not count.
     """
     logs_a, logs_b = np.asarray(logs_a, float), np.asarray(logs_b, float)
-    if logs_a.shape[1:] != logs_b.shape[1:] or logs_a.shape[-1] != np.shape(scale)[-1]:
-        raise ValueError(f"separation: shapes {logs_a.shape}, {logs_b.shape} and scale "
-                         f"{np.shape(scale)} do not match (starts, commands, features)")
+    spreads = [np.asarray(s, float) for s in (spread_a, spread_b)]
+    if (logs_a.shape[1:] != logs_b.shape[1:] or logs_a.shape[-1] != np.shape(scale)[-1]
+            or any(s.shape != logs_a.shape[1:] for s in spreads)):
+        raise ValueError(f"separation: shapes {logs_a.shape}, {logs_b.shape}, scale "
+                         f"{np.shape(scale)} and spreads {[s.shape for s in spreads]} do "
+                         f"not match (starts, commands, features)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # an unscored feature: NaN
-        def spread(logs):
-            return (np.nan_to_num(np.nanstd(logs, axis=0, ddof=1)) if len(logs) > 1
-                    else np.zeros(logs.shape[1:]))
-        width = np.sqrt(np.asarray(scale, float) ** 2 + spread(logs_a) ** 2
-                        + spread(logs_b) ** 2)
+        width = np.sqrt(np.asarray(scale, float) ** 2 + spreads[0] ** 2 + spreads[1] ** 2)
         z = (np.nanmedian(logs_a, axis=0) - np.nanmedian(logs_b, axis=0)) / width
         return np.sqrt(np.nanmean(z ** 2, axis=1)), z
 
@@ -108,7 +110,9 @@ def separating_commands(first, second, comparison: Comparison, groups: list[Grou
     logs = np.stack([comparison.simulated_log(s.features) for s in sims])
     scale = comparison.scale if comparison.scale.ndim == 1 else np.median(comparison.scale,
                                                                            axis=0)
-    apart, z = separation(logs[:starts], logs[starts:], scale)
+    apart, z = separation(logs[:starts], logs[starts:], scale,
+                          comparison.start_spread(sims[:starts]),
+                          comparison.start_spread(sims[starts:]))
     names = comparison_feature_names()
     out = []
     for k, g in enumerate(commands):
