@@ -316,6 +316,29 @@ def test_split_holds_out_a_command_that_shows_the_discrepancy():
     assert list(diagnosis.split(six, np.array([3.0, 1.0, 2.5, 5.0, 1.5, 1.9]))[1]) == [0, 2]
 
 
+def test_split_holds_out_the_commands_a_user_names():
+    tile, concrete = (Setup(build="extended", floor=f) for f in ("tile", "concrete"))
+    obs = _observed(np.ones((12, N_POWER + 1)), [0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3])
+    obs.groups = [Group(0.0, w, tile) for w in (10.0, 20.0, 30.0)] + [
+        Group(0.0, 60.0, concrete)]
+    # by its label, or its command alone where one setup has it; neither rule applies,
+    # not even where the held-out command is quiet and others show the discrepancy
+    errors = np.array([3.0, 3.0, 3.0, 1.0])
+    held = diagnosis.split(obs, errors, held_out=["v0-w60"])[1]
+    assert list(held) == [9, 10, 11]
+    both = diagnosis.split(obs, held_out=["v0-w10 tile extended", "v0-w60"])
+    assert list(both[1]) == [0, 1, 2, 9, 10, 11] and list(both[0]) == [3, 4, 5, 6, 7, 8]
+    # held out by the user, a command is a new one even with fewer than three
+    assert diagnosis.fit.holds_out_commands(obs, ["v0-w60"])
+    with pytest.raises(ValueError, match=r"'v0-w45'.*no such command.*v0-w10 tile extended"):
+        diagnosis.split(obs, held_out=["v0-w45"])
+    with pytest.raises(ValueError, match="every command"):
+        diagnosis.split(obs, held_out=[g.label for g in obs.groups])
+    obs.groups[3] = Group(0.0, 10.0, concrete)  # two setups at 10 deg/s
+    with pytest.raises(ValueError, match=r"'v0-w10' names 2 commands.*full label"):
+        diagnosis.split(obs, held_out=["v0-w10"])
+
+
 class _Surface:
     """A stand-in for a cause's simulations (what refine_parameters sees through
     _Evaluations): the training error is a known function of the parameters, and every
@@ -970,6 +993,22 @@ def test_trial_spread_counts_a_feature_only_where_it_is_scored():
     pooled = np.sqrt(((logs - logs.mean(axis=1, keepdims=True)) ** 2).sum() / 4)
     assert comp.observed.trial_spread()[0] == pytest.approx(pooled)
     assert comp.observed.trial_spread()[0] > 0.2
+
+
+def test_a_hold_out_the_dataset_lacks_is_a_clear_error_before_any_simulation(tmp_path,
+                                                                             capsys):
+    from skidsteer.cli import main
+
+    data = tmp_path / "three"
+    make_dataset(data, None, seed=5, omegas=(20.0, 30.0, 40.0), trials=2, duration_s=8.0,
+                 file_format="csv")
+    out = tmp_path / "out"
+    assert main(["diagnose", str(data), "--out", str(out), "--no-progress",
+                 "--hold-out", "v0-w45"]) == 2
+    error = capsys.readouterr().err
+    assert str(data) in error and "'v0-w45'" in error and "v0-w20 concrete extended" in error
+    cache = out / ".skidsteer-cache"
+    assert not cache.exists() or not any(cache.iterdir())  # nothing was simulated
 
 
 def test_missing_dataset_is_a_clear_error(tmp_path, capsys):

@@ -317,7 +317,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if is_imu_folder(args.dataset):
         given = ([f"--search-starts {args.search_starts}"]
                  if args.search_starts != SEARCH_STARTS else []) + (
-                     ["--model-spread"] if args.model_spread else [])
+                     ["--model-spread"] if args.model_spread else []) + (
+                     [f"--hold-out {c}" for c in args.hold_out or []])
         if given:
             print(f"skidsteer: {' and '.join(given)}: "
                   f"{'apply' if len(given) > 1 else 'applies'} to a dataset's fits; "
@@ -327,7 +328,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         return _diagnose_recordings(args)
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
                                    cache_dir=args.cache, search_starts=args.search_starts,
-                                   model_spread=args.model_spread)
+                                   model_spread=args.model_spread, held_out=args.hold_out)
     if result is None:
         return code
     g = result["gain"]
@@ -524,6 +525,12 @@ def build_parser() -> argparse.ArgumentParser:
                                 "base model's own start-to-start spread together (its "
                                 f"{STARTS} simulated starts of each command): features the "
                                 "model itself does not repeat count for less")
+            p.add_argument("--hold-out", action="append", metavar="COMMAND",
+                           help="test the fits on this command's runs, fitted without them "
+                                "(repeatable; a label of diagnosis.json's dataset.groups, "
+                                "such as 'v0-w60 tile extended', or 'v0-w60' where one setup "
+                                "has it; default: every third command from the second, or "
+                                "one that shows the discrepancy)")
         _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

@@ -162,12 +162,14 @@ def case_of(row: dict) -> dict:
 
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
              search_starts: int = SEARCH_STARTS, timestep: float | None = None,
-             model_spread: bool = False, rough_floor_normal: str | None = None) -> dict:
+             model_spread: bool = False, rough_floor_normal: str | None = None,
+             held_out: list[str] | None = None) -> dict:
     """The case's row: its dataset generated and diagnosed, both at `timestep` (None: the
     model's own step, as every committed row); model_spread: diagnose's (False in every
     committed row); rough_floor_normal: the tire plugin's floor_normal on
     ground_roughness's floor, the data's and the fits' (None: the plugin's default, as
-    every committed row)."""
+    every committed row); held_out: the commands diagnose holds out (None: it chooses,
+    as in every committed row)."""
     data = out / "datasets" / case["case"]
     with ground_roughness.contact_normal(rough_floor_normal):
         started = time.perf_counter()
@@ -175,7 +177,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
         generated_s = time.perf_counter() - started
         result = diagnose(data, None, nthread=threads, progress=True, timestep=timestep,
                           cache_dir=out / "simulations", search_starts=search_starts,
-                          model_spread=model_spread)
+                          model_spread=model_spread, held_out=held_out)
     best = result["ranking"][0] if result["ranking"] else {}
     return {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
@@ -186,6 +188,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "held_out": [result["gain"]["baseline_error"], result["gain"]["extended_error"]],
             "removed": result["gain"]["relative_reduction"],
             "held_out_groups": result["dataset"]["held_out_groups"],
+            **({"held_out_given": held_out} if held_out is not None else {}),
             # what the verdict rules read (_verdict judges the row again by the rules of
             # the day)
             "noise": result["gain"]["noise_error"],

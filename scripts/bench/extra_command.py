@@ -20,13 +20,16 @@ The second generates the draw's data and diagnoses it at 0.05 ms (issue 18's que
 1211, a null, fails at the default 0.1 ms, whose 30 deg/s on carpet has two regimes).
 
     python scripts/bench/extra_command.py 1214 --propose first --out /tmp/next
+    python scripts/bench/extra_command.py 1178 60 --hold-out-extra --out /tmp/next
 
 takes the extra command from diagnose itself (diagnosis.next_command): the draw's data
 diagnosed with its row's two best causes as the only candidates (their fits are the
 full diagnosis's: each cause is fitted on its own, and these two are its contenders),
 and the swivel that diagnosis proposes to tell them apart (`first`; `last`, the one it
 ranks last, is the control: does any extra command do as well?) is added.  The row's
-"proposal" holds what the two-cause diagnosis said.
+"proposal" holds what the two-cause diagnosis said.  With --hold-out-extra the
+extra command is held out (diagnose --hold-out): the fits are trained on the draw's own
+commands alone and tested on the recorded proposal, which is what the proposal predicted.
 
 Prints the benchmark's row for the new dataset (bench_diagnose_generalisation.run_case:
 everything the verdict rules read) as one JSON line and appends it to OUT/rows.jsonl.
@@ -63,6 +66,9 @@ def main(argv=None) -> int:
     ap.add_argument("--propose", choices=("first", "last"),
                     help="add the swivel diagnose proposes to tell the row's two best causes "
                          "apart (first) or the one it ranks last (the control)")
+    ap.add_argument("--hold-out-extra", action="store_true",
+                    help="diagnose with the extra command held out (diagnose --hold-out): "
+                         "the fits, trained on the draw's own commands, predict it")
     args = ap.parse_args(argv)
     rows = generalisation.newest_rows(args.results)
     if f"draw-{args.seed}" not in rows:
@@ -83,6 +89,8 @@ def main(argv=None) -> int:
               f"(separation {chosen['separation']:.2f})")
     if args.extra_deg_s is None and args.timestep is None:
         ap.error("give an extra command, a --timestep, or both")
+    if args.hold_out_extra and args.extra_deg_s is None:
+        ap.error("--hold-out-extra needs an extra command (or --propose)")
     if args.extra_deg_s in drawn["omegas"]:
         ap.error(f"draw {args.seed} already has {args.extra_deg_s:g} deg/s: {drawn['omegas']}")
     extra = [] if args.extra_deg_s is None else [args.extra_deg_s]
@@ -90,8 +98,9 @@ def main(argv=None) -> int:
     if args.timestep is not None:
         name += f"-step{args.timestep:g}"
     case = {**drawn, "case": name, "omegas": sorted([*drawn["omegas"], *extra])}
-    row = generalisation.run_case(case, args.out, 3, 20.0, args.threads,
-                                  timestep=args.timestep)
+    row = generalisation.run_case(
+        case, args.out, 3, 20.0, args.threads, timestep=args.timestep,
+        held_out=[f"v0-w{args.extra_deg_s:g}"] if args.hold_out_extra else None)
     middle = sorted(drawn["omegas"])[1]  # split()'s held-out command with three
     row["held_out_as_drawn"] = any(label.split()[0] == f"v0-w{middle:g}"
                                    for label in row["held_out_groups"])

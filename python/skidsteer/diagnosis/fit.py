@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable, NamedTuple
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 from scipy import optimize
@@ -221,8 +221,8 @@ class Fit:
         return list(self.intervals) or [self.main]
 
 
-def split(observed: Observed, group_errors: np.ndarray | None = None
-          ) -> tuple[np.ndarray, np.ndarray]:
+def split(observed: Observed, group_errors: np.ndarray | None = None,
+          held_out: Sequence[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(training runs, held-out runs): every third group, starting with the second, is
     held out; with fewer than 3 groups, the last trial of each group is.
 
@@ -233,9 +233,14 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
     instead, as many: the held-out runs then show the discrepancy, and the groups
     showing it most still train.  Issue 21's benchmark: 14 of its 179 datasets had a
     quiet held-out command; in 5 of them two commands show the effect (per-command
-    errors measured with the base model before this rule was written)."""
+    errors measured with the base model before this rule was written).
+
+    held_out: the commands to hold out instead (held_out_groups: labels, or a command
+    alone where one setup has it), as the user chose them; neither rule applies."""
     runs = np.arange(len(observed.run_group))
-    if holds_out_commands(observed):
+    if held_out is not None:
+        held = np.isin(observed.run_group, held_out_groups(observed, held_out))
+    elif holds_out_commands(observed):
         held_groups = np.arange(1, len(observed.groups), 3)
         if group_errors is not None:
             errors = np.asarray(group_errors)
@@ -256,10 +261,34 @@ def split(observed: Observed, group_errors: np.ndarray | None = None
     return runs[~held], runs[held]
 
 
-def holds_out_commands(observed: Observed) -> bool:
-    """Whether split holds out whole commands (three or more), or else the last trial of
-    each, which repeats a trained command and can confirm no cause (verdict)."""
-    return len(observed.groups) >= 3
+def held_out_groups(observed: Observed, commands: Sequence[str]) -> np.ndarray:
+    """The indices of the groups `commands` name, each by its label ("v0-w60 tile
+    extended", as diagnosis.json's dataset.groups list them) or by its command alone
+    ("v0-w60") where only one setup has it.  A command the dataset lacks, one that names
+    several groups, or holding out every command is an error naming it."""
+    labels = [g.label for g in observed.groups]
+    chosen = []
+    for command in commands:
+        matches = [i for i, label in enumerate(labels)
+                   if command.strip() in (label, label.split()[0])]
+        if not matches:
+            raise ValueError(f"hold-out {command!r}: the dataset has no such command "
+                             f"(its commands: {', '.join(labels)})")
+        if len(matches) > 1:
+            raise ValueError(f"hold-out {command!r} names {len(matches)} commands ("
+                             f"{', '.join(labels[i] for i in matches)}): give the full label")
+        chosen.append(matches[0])
+    if len(set(chosen)) == len(labels):
+        raise ValueError(f"hold-out {', '.join(commands)}: that is every command of the "
+                         "dataset, and none would be left to fit on")
+    return np.array(sorted(set(chosen)), int)
+
+
+def holds_out_commands(observed: Observed, held_out: Sequence[str] | None = None) -> bool:
+    """Whether split holds out whole commands (the user's held_out, or three or more
+    commands), or else the last trial of each, which repeats a trained command and can
+    confirm no cause (verdict)."""
+    return held_out is not None or len(observed.groups) >= 3
 
 
 def base_group_errors(comparison: Comparison, sims: list[Simulated]) -> np.ndarray:
@@ -937,7 +966,8 @@ def fit_pair(first: Fit, second: Fit, held: np.ndarray) -> dict | None:
 
 
 def simulations_planned(names: list[str], observed: Observed,
-                        search_starts: int = SEARCH_STARTS) -> int:
+                        search_starts: int = SEARCH_STARTS,
+                        held_out: Sequence[str] | None = None) -> int:
     """How many command simulations diagnosing `observed` with these candidates is planned
     to take (a progress bar's total; a plan, not a bound: Brent is planned
     REFINE_STEPS_PLANNED steps and may take up to REFINE_MAX_STEPS, and refinements and
@@ -967,7 +997,8 @@ def simulations_planned(names: list[str], observed: Observed,
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
                    + (refining(c) if c.name in refined else 0) for c in candidates)
-    train, held = split(observed)  # split() moves held-out groups, never changes their count
+    # split() moves held-out groups, never changes their count; the user's stay
+    train, held = split(observed, held_out=held_out)
     n_groups = len(observed.groups)
     n_trained = len(set(observed.run_group[train].tolist()))
     n_held = len(set(observed.run_group[held].tolist()))
@@ -1003,6 +1034,8 @@ class Diagnosis:
     # next_command.separating_commands of the two fits the data leave undecided, best
     # first (empty when a cause is named or no pair is undecided: undecided_pair)
     next_commands: list[dict] = dataclasses.field(default_factory=list)
+    # the commands the user held out (split's held_out), None where split() chose them
+    held_out_given: list[str] | None = None
 
     @property
     def reference(self) -> Fit | None:
@@ -1074,6 +1107,7 @@ class Diagnosis:
                         "groups": [g.label for g in groups],
                         "held_out_groups": sorted({groups[i].label
                                                    for i in self.observed.run_group[self.held]}),
+                        "held_out_given": self.held_out_given,
                         # what split() chose the held-out groups by
                         "base_error_by_group": (None if self.group_errors is None else
                                                 {g.label: float(e) for g, e in
@@ -1103,12 +1137,14 @@ class BaseAndSplit(NamedTuple):
 
 def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorChain,
                    backend, progress=None, cache=None, signals: bool = False,
-                   model_spread: bool = False) -> BaseAndSplit:
+                   model_spread: bool = False,
+                   held_out: Sequence[str] | None = None) -> BaseAndSplit:
     """The base model simulated on every command from every start, the comparison it
     reads the records with, and the split of training and held-out runs (diagnose's first
     two steps; scripts/bench/profile_fit.py reads them too).  model_spread: the
     comparison's scale also holds the base model's start-to-start spread
-    (Comparison.with_model_spread of its STARTS starts)."""
+    (Comparison.with_model_spread of its STARTS starts).  held_out: the commands to hold
+    out (split's; default: split() chooses)."""
     groups = observed.groups
     base_model = model_factory(timestep=timestep)
     base = simulate_groups([(base_model, groups)], observed.duration_s,
@@ -1124,7 +1160,7 @@ def base_and_split(observed: Observed, *, timestep: float | None, chain: SensorC
     if model_spread:
         comparison = comparison.with_model_spread(base_starts)
     group_errors = base_group_errors(comparison, base_starts)
-    train, held = split(observed, group_errors)
+    train, held = split(observed, group_errors, held_out)
     return BaseAndSplit(observed, comparison, base, base_starts, group_errors, train, held)
 
 
@@ -1132,7 +1168,8 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
                       timestep: float | None = None, chain: SensorChain = SensorChain(),
                       backend, progress: Callable[[int], None] | None = None, cache=None,
                       signals: bool = True, search_starts: int = SEARCH_STARTS,
-                      model_spread: bool = False, next_command: bool = True) -> Diagnosis:
+                      model_spread: bool = False, next_command: bool = True,
+                      held_out: Sequence[str] | None = None) -> Diagnosis:
     """Simulates the base model on every command of the measured runs, and, if it
     disagrees with them, fits every candidate cause on the training runs and decides.
 
@@ -1147,7 +1184,9 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     alone).  next_command: when two fits each remove most of the held-out discrepancy and
     none is named (next_command.undecided_pair), simulate both on the swivels the dataset
     lacks and propose the one that tells them apart (Diagnosis.next_commands; the reason
-    says it).
+    says it).  held_out: the commands whose runs test the fits (split's held_out: labels,
+    or commands alone; default: split() chooses), such as a proposed command once
+    recorded: the fits trained without it then predict it.
     """
     if not 1 <= search_starts <= STARTS:
         raise ValueError(f"search_starts={search_starts}: must be 1 to {STARTS}")
@@ -1157,7 +1196,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     names = candidates or sorted(cause_registry.CAUSES)
     observed, comparison, base, base_starts, group_errors, train, held = base_and_split(
         observed, timestep=timestep, chain=chain, backend=backend, progress=progress,
-        cache=cache, signals=signals, model_spread=model_spread)
+        cache=cache, signals=signals, model_spread=model_spread, held_out=held_out)
     base_error = median_error(comparison, base_starts, all_runs)
     base_held = median_error(comparison, base_starts, held, train)
     # as a fit's train_error: the median over the search's starts
@@ -1192,7 +1231,8 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
     pair = fit_pair(fits[0], fits[1], held) if len(fits) > 1 else None
     result, named, reason = verdict(base_error, base_held, fits, noise, base_train=base_train,
                                     n_train=len(train),
-                                    held_out_new_commands=holds_out_commands(observed),
+                                    held_out_new_commands=holds_out_commands(observed,
+                                                                             held_out),
                                     scale=comparison.scale_label)
     if pair is not None and pair["better_than_best"] and result != "explained":
         reason += (f"; the pair {' + '.join(pair['causes'])} does better (held-out "
@@ -1205,7 +1245,7 @@ def diagnose_observed(observed: Observed, candidates: list[str] | None = None, *
         reason += proposal_note(proposals, *undecided, Z_CONSISTENT)
     found = Diagnosis(observed, comparison, train, held, base, base_error, base_held, base_train,
                       noise, fits, not_applicable, result, named, reason, pair, group_errors,
-                      proposals)
+                      proposals, None if held_out is None else list(held_out))
     reference = found.reference
     if signals and reference is not None and reference.simulated.accel[0] is None:
         # read from the cache: simulate the fit a report plots again, for its signals

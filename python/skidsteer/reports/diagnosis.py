@@ -26,8 +26,8 @@ from skidsteer.diagnosis import causes as cause_registry
 from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
                                             model_factory, require_spread, simulate_groups)
 from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
-                                     holds_out_commands, median_error, over_starts,
-                                     simulations_planned)
+                                     held_out_groups, holds_out_commands, median_error,
+                                     over_starts, simulations_planned)
 from skidsteer.diagnosis.next_command import PROPOSAL_STARTS
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
@@ -74,7 +74,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
              timestep: float | None = None, chain: SensorChain = SensorChain(),
              figures: bool = True, backend=None, cache_dir=None,
              search_starts: int = SEARCH_STARTS, model_spread: bool = False,
-             next_command: bool = True) -> dict:
+             next_command: bool = True, held_out: list[str] | None = None) -> dict:
     """Diagnoses a measured dataset; writes diagnosis.json, report.md, figures and the
     extended model to out_dir when given.  Returns the diagnosis.
 
@@ -95,6 +95,9 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
 
     next_command: propose the swivel that tells two undecided candidates apart
     (diagnosis.next_command; simulated only when a diagnosis leaves two).
+
+    held_out: the commands whose runs test the fits, by label or command alone
+    (diagnosis.fit.held_out_groups; default: the diagnosis chooses, diagnosis.fit.split).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -102,12 +105,17 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
         cache_dir = Path(out_dir) / CACHE_DIR
     stored = SimulationCache(cache_dir) if cache_dir is not None else None
     observed = _observed(dataset_dir, model)
+    if held_out is not None:  # before anything is simulated or written
+        try:
+            held_out_groups(observed, held_out)
+        except ValueError as err:
+            raise ValueError(f"{dataset_dir}: {err}") from None
     if out_dir is not None:
         begin_outputs(Path(out_dir), "diagnosis.json", "diagnose",
                       f"; finished simulations are kept in {cache_dir}, and the same command "
                       "rerun resumes from them")
     names = candidates or sorted(cause_registry.CAUSES)
-    bar = _Progress(simulations_planned(names, observed, search_starts), progress,
+    bar = _Progress(simulations_planned(names, observed, search_starts, held_out), progress,
                     "diagnose")
     try:
         # a report plots the base model: its time series are needed, so with out_dir
@@ -115,7 +123,8 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
         found = diagnose_observed(observed, names, timestep=timestep, chain=chain,
                                   backend=backend, progress=bar, cache=stored,
                                   signals=out_dir is not None, search_starts=search_starts,
-                                  model_spread=model_spread, next_command=next_command)
+                                  model_spread=model_spread, next_command=next_command,
+                                  held_out=held_out)
     finally:
         bar.close()
     summary = found.summary()
@@ -415,7 +424,9 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
         "# skidsteer diagnose", "",
         f"Dataset `{diagnosis['dataset']['root']}`: {diagnosis['dataset']['runs']} runs, "
         f"{len(observed.groups)} command{'s' if len(observed.groups) != 1 else ''} (held out: "
-        + (f"{', '.join(diagnosis['dataset']['held_out_groups'])}" if holds_out_commands(observed)
+        + (f"{', '.join(diagnosis['dataset']['held_out_groups'])}"
+           + (", as given" if diagnosis["dataset"].get("held_out_given") else "")
+           if holds_out_commands(observed, diagnosis["dataset"].get("held_out_given"))
            else "the last trial of each: with fewer than 3 commands no command can be held "
                 "out, and no cause is named")
         + f"); model: {diagnosis['model']}.",
