@@ -90,8 +90,10 @@ def test_the_note_proposes_a_command_only_above_the_discrepancy_limit():
 
     note = proposal_note([proposal(3.4, 40.0), proposal(1.0, 10.0)], a, b, Z_CONSISTENT)
     assert "record a swivel at 40 deg/s" in note and "3.4 RMS z apart" in note
+    assert "--hold-out 'v0-w40 tile extended'" in note  # how to test the fits on it
     note = proposal_note([proposal(1.6, 40.0), proposal(1.0, 10.0)], a, b, Z_CONSISTENT)
     assert "no swivel of 10-40 deg/s" in note and "at most 1.6" in note
+    assert "--hold-out" not in note
     assert proposal_note([], a, b, Z_CONSISTENT) == ""
 
 

@@ -141,7 +141,10 @@ def undecided_pair(fits: list, named, base_held: float, limit: float, min_gain: 
 
 def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
     """The clause a verdict's reason gains from separating_commands' proposals ('' when
-    there is no candidate): the command to record, or that none in the range would do."""
+    there is no candidate): the command to record, and to hold out once recorded (the fits
+    trained on the commands recorded now then predict it, which is what separates them:
+    held out by split()'s rule instead, the tied commands decide again; issue 21's draw
+    1178, docs/diagnose.md), or that none in the range would do."""
     if not proposals:
         return ""
     top = proposals[0]
@@ -150,7 +153,8 @@ def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
         return (f"; to tell {first.cause} from {second.cause}, record a swivel at "
                 f"{top['omega_deg_s']:g} deg/s ({top['command']}): their fits predict it "
                 f"{top['separation']:.1f} RMS z apart ({top['feature']} the most: {a:.2f} "
-                f"against {b:.2f})")
+                f"against {b:.2f}); diagnose it with --hold-out '{top['command']}' to test "
+                f"the fits on it")
     rates = [p["omega_deg_s"] for p in proposals]
     return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack tells "
             f"{first.cause} from {second.cause} in simulation (at most "

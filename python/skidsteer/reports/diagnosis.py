@@ -467,6 +467,13 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
                         [[p["command"], _fmt(p["separation"]), p["feature"],
                           _fmt(p["predicted"][first]), _fmt(p["predicted"][second])]
                          for p in diagnosis["next_commands"]]), ""]
+        top = diagnosis["next_commands"][0]
+        if top["separation"] >= Z_CONSISTENT:
+            lines += [f"Record `{top['command']}` (as many trials as the other commands), add "
+                      "its runs to the dataset and diagnose it again with `--hold-out "
+                      f"'{top['command']}'`: the fits are then trained on the commands "
+                      "recorded now and tested on the one where they predict different "
+                      "measurements.", ""]
     lines += [
         "## Gain on held-out runs", "",
         table(["metric", "base model", f"extended ({g['extended_cause'] or '-'})",
