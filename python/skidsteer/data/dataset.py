@@ -57,9 +57,14 @@ class Group:
     setup: Setup
 
     @property
+    def command(self) -> str:
+        """The command alone, as the label starts: "v0-w60"."""
+        return f"v{self.v_mps:g}-w{self.omega_deg_s:g}"
+
+    @property
     def label(self) -> str:
         s = self.setup
-        return (f"v{self.v_mps:g}-w{self.omega_deg_s:g} {s.floor} {s.build}"
+        return (f"{self.command} {s.floor} {s.build}"
                 + (f" on-{s.mount}" if s.mount != PLATFORM_MOUNT else ""))
 
     def sort_key(self) -> tuple:

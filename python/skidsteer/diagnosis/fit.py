@@ -269,8 +269,8 @@ def held_out_groups(observed: Observed, commands: Sequence[str]) -> np.ndarray:
     labels = [g.label for g in observed.groups]
     chosen = []
     for command in commands:
-        matches = [i for i, label in enumerate(labels)
-                   if command.strip() in (label, label.split()[0])]
+        matches = [i for i, g in enumerate(observed.groups)
+                   if command.strip() in (g.label, g.command)]
         if not matches:
             raise ValueError(f"hold-out {command!r}: the dataset has no such command "
                              f"(its commands: {', '.join(labels)})")
