@@ -877,6 +877,16 @@ def test_verdict_rules():
     result, named, reason = _judge(3.0, z - 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)
     assert (result, named) == ("unexplained", None) and "cannot confirm" in reason
     assert _judge(3.0, z + 0.1, [_fit("a", 1.2), _fit("b", 3.0)], noise=1.0)[0] == "explained"
+    # ... and its reason names what the training runs rank first, not the held-out best
+    # (issue 21's draws 1068 and 1187: the held-out best was another cause, the training
+    # runs' lead the hidden one), or says that they tell none from the base model
+    fits = [_fit("a", 1.2), _fit("b", 3.0)]
+    fits[0].train_error, fits[1].train_error = 2.2, 1.5
+    assert "the training runs point to b (training error 3.00 -> 1.50)" in _judge(
+        3.0, z - 0.1, fits, noise=1.0)[2]
+    fits[0].train_error, fits[1].train_error = 2.95, 2.9  # 3^2 < 2.9^2 (1 + 1/6)
+    assert "the training runs tell no candidate from the base model" in _judge(
+        3.0, z - 0.1, fits, noise=1.0)[2]
     # the same, but the held-out runs are repeat trials of the trained commands (fewer
     # than three commands): they cannot confirm it either
     result, named, reason = diagnosis.verdict(

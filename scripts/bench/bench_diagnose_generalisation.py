@@ -214,8 +214,11 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # the rough floor's contact normal (None: the plugin's default, vertical)
             "rough_floor_normal": rough_floor_normal,
             # the swivels proposed to tell two undecided fits apart (diagnosis.next_command;
-            # from stop 57 on: scripts/bench/extra_command.py records the one proposed first)
-            "next_commands": result["next_commands"]}
+            # from stop 57 on: scripts/bench/extra_command.py records the one proposed first),
+            # or, from stop 61 on, to confirm the training runs' lead when the held-out runs
+            # are quiet (next_command_purpose says which)
+            "next_commands": result["next_commands"],
+            "next_command_purpose": result.get("next_command_purpose")}
 
 
 def _recovery(row: dict) -> str:

@@ -30,6 +30,12 @@ ranks last, is the control: does any extra command do as well?) is added.  The r
 "proposal" holds what the two-cause diagnosis said.  With --hold-out-extra the
 extra command is held out (diagnose --hold-out): the fits are trained on the draw's own
 commands alone and tested on the recorded proposal, which is what the proposal predicted.
+A draw whose held-out command is quiet (the base model within Z_CONSISTENT there) is
+diagnosed instead with the one cause its row's training runs ranked first
+(fit.training_lead), and the swivel proposed to confirm it is added (the lead is fitted
+on its own, every parameter, where the full diagnosis refined only its two best):
+
+    python scripts/bench/extra_command.py 1182 --propose first --hold-out-extra --out /tmp/c
 
 Prints the benchmark's row for the new dataset (bench_diagnose_generalisation.run_case:
 everything the verdict rules read) as one JSON line and appends it to OUT/rows.jsonl.
@@ -44,10 +50,13 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_diagnose_generalisation as generalisation  # noqa: E402
+from skidsteer.diagnosis import Z_CONSISTENT  # noqa: E402
+from skidsteer.diagnosis.fit import training_lead  # noqa: E402
 
 ROWS = Path(__file__).resolve().parents[2] / "docs" / "diagnose-generalisation.jsonl"
 
@@ -66,6 +75,9 @@ def main(argv=None) -> int:
     ap.add_argument("--propose", choices=("first", "last"),
                     help="add the swivel diagnose proposes to tell the row's two best causes "
                          "apart (first) or the one it ranks last (the control)")
+    ap.add_argument("--proposal-only", action="store_true",
+                    help="with --propose: print what diagnose proposes and stop (no command "
+                         "is recorded or diagnosed)")
     ap.add_argument("--hold-out-extra", action="store_true",
                     help="diagnose with the extra command held out (diagnose --hold-out): "
                          "the fits, trained on the draw's own commands, predict it")
@@ -74,6 +86,8 @@ def main(argv=None) -> int:
     if f"draw-{args.seed}" not in rows:
         ap.error(f"no row draw-{args.seed} in {args.results}")
     drawn = generalisation.case_of(rows[f"draw-{args.seed}"])
+    if args.proposal_only and not args.propose:
+        ap.error("--proposal-only needs --propose")
     if args.propose and args.extra_deg_s is not None:
         ap.error("--propose chooses the extra command: give none")
     proposal = None
@@ -83,6 +97,9 @@ def main(argv=None) -> int:
             print(f"draw {args.seed}: diagnose with {' and '.join(proposal['pair'])} proposes "
                   f"no command ({proposal['verdict']}: {proposal['reason']})")
             return 1
+        if args.proposal_only:
+            print(json.dumps({"case": f"draw-{args.seed}", "proposal": proposal}))
+            return 0
         chosen = proposal["next_commands"][0 if args.propose == "first" else -1]
         args.extra_deg_s = chosen["omega_deg_s"]
         print(f"draw {args.seed}: {args.propose} proposal {args.extra_deg_s:g} deg/s "
@@ -115,8 +132,20 @@ def main(argv=None) -> int:
 
 def proposed(row: dict, drawn: dict, args) -> dict:
     """What diagnose proposes for the draw: its data diagnosed with the row's two best
-    causes as the only candidates (the verdict, the reason and next_commands)."""
-    pair = [f["cause"] for f in row["ranking"][:2]]
+    causes as the only candidates (the verdict, the reason and next_commands), or, where
+    the row's held-out command shows no discrepancy of its own, with the cause the
+    training runs ranked first (fit.training_lead of the row's ranking): diagnose then
+    proposes the swivel that would confirm it (next_command.CONFIRM)."""
+    if row["held_out"][0] <= Z_CONSISTENT:
+        fits = [SimpleNamespace(**f) for f in row["ranking"]]
+        lead = training_lead(fits, row["base_train"], row["n_train"])
+        if lead is None:
+            raise SystemExit(f"draw {row['seed']}: its held-out command is quiet and the "
+                             "training runs tell no candidate from the base model: nothing "
+                             "to confirm")
+        pair = [lead.cause]
+    else:
+        pair = [f["cause"] for f in row["ranking"][:2]]
     generalisation.generate(drawn, args.out, 3, 20.0, args.threads, args.timestep)
     result = generalisation.diagnose(args.out / "datasets" / drawn["case"], None,
                                      candidates=pair, nthread=args.threads, progress=True,

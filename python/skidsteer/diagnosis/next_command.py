@@ -1,10 +1,15 @@
 """The next command to record: where two fitted causes the data cannot tell apart predict
-different measurements.
+different measurements, or where the cause the training runs point to predicts a
+discrepancy the held-out runs do not show.
 
 When a diagnosis names no cause because two candidates each remove most of the
 held-out discrepancy (they "explain the data about equally well", or the training
 and held-out halves prefer different ones), the recorded commands do not separate
-them, and no threshold will.  A new recording can: ``separating_commands``
+them, and no threshold will (SEPARATE).  When it names none because the held-out
+command shows no discrepancy of its own (the effect shows on the training commands
+alone), nothing recorded can confirm the training runs' lead; a command where the
+lead's fit and the base model predict different measurements can (CONFIRM: the same
+scoring, with the base model as the second model).  A new recording can: ``separating_commands``
 simulates both fits, each at its fitted parameters and realisation, on swivels the
 dataset does not have, and scores how far apart their features land, in the units
 every error of the diagnosis is read in (the trials' spread), widened by each
@@ -24,6 +29,7 @@ to record").
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,6 +52,18 @@ RECORDED_WITHIN_DEG_S = 5.0
 # give a median and a spread; the diagnosis's errors take 5, and a proposal costs
 # 2 models x 3 starts x 6 commands = 36 simulations, about a twentieth of a diagnosis)
 PROPOSAL_STARTS = 3
+# what a diagnosis's proposals are for (Diagnosis.next_command_purpose)
+SEPARATE = "separate"  # two undecided fits (undecided_pair)
+CONFIRM = "confirm"  # the training runs' lead against the base model (fit.unconfirmed_lead)
+
+
+BASE_MODEL = "base model"  # how a CONFIRM proposal's "predicted" names the base model
+
+
+class BaseModel(NamedTuple):
+    """The base model as separating_commands' second model (a fit's cause and factory)."""
+    factory: object  # comparison.model_factory() of the diagnosis's step
+    cause: str = BASE_MODEL
 
 
 def candidate_commands(groups: list[Group],
@@ -160,3 +178,25 @@ def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
             f"{first.cause} from {second.cause} in simulation (at most "
             f"{top['separation']:.1f} RMS z apart, at {top['omega_deg_s']:g} deg/s, against "
             f"the {limit} a discrepancy needs)")
+
+
+def confirmation_note(proposals: list[dict], lead, limit: float) -> str:
+    """The clause a verdict's reason gains from separating_commands' proposals of the
+    training runs' lead against the base model ('' when there is no candidate): the
+    command where the lead's fit predicts a discrepancy of at least `limit` (what the
+    held-out runs must show before they can confirm a cause), to record and hold out, or
+    that no swivel in the range shows one."""
+    if not proposals:
+        return ""
+    top = proposals[0]
+    if top["separation"] >= limit:
+        a, b = (top["predicted"][c] for c in (lead.cause, BASE_MODEL))
+        return (f"; to confirm {lead.cause}, record a swivel at {top['omega_deg_s']:g} deg/s "
+                f"({top['command']}): its fit predicts it {top['separation']:.1f} RMS z from "
+                f"the base model ({top['feature']} the most: {a:.2f} against {b:.2f}); "
+                f"diagnose it with --hold-out '{top['command']}' to test the fit on it")
+    rates = [p["omega_deg_s"] for p in proposals]
+    return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack shows "
+            f"{lead.cause}'s fit apart from the base model in simulation (at most "
+            f"{top['separation']:.1f} RMS z, at {top['omega_deg_s']:g} deg/s, against the "
+            f"{limit} a discrepancy needs)")

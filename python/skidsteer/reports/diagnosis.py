@@ -28,7 +28,7 @@ from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, gro
 from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
                                      held_out_groups, holds_out_commands, median_error,
                                      over_starts, simulations_planned)
-from skidsteer.diagnosis.next_command import PROPOSAL_STARTS
+from skidsteer.diagnosis.next_command import CONFIRM, PROPOSAL_STARTS
 from skidsteer.features import signals
 from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
                                         steady_summary, steady_window)
@@ -93,8 +93,9 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     model_spread: read every error against the trials' spread and the base model's own
     start-to-start spread together (diagnosis.comparison.Comparison.with_model_spread).
 
-    next_command: propose the swivel that tells two undecided candidates apart
-    (diagnosis.next_command; simulated only when a diagnosis leaves two).
+    next_command: propose the swivel that tells two undecided candidates apart, or that
+    would confirm the training runs' lead when the held-out runs show no discrepancy
+    (diagnosis.next_command; simulated only on such verdicts).
 
     held_out: the commands whose runs test the fits, by label or command alone
     (diagnosis.fit.held_out_groups; default: the diagnosis chooses, diagnosis.fit.split).
@@ -320,6 +321,40 @@ def unprobed_note(sides: list[str] | None) -> str:
     return f"; not probed {' or '.join(sides)}" if sides else ""
 
 
+def _next_command_section(proposals: list[dict], purpose: str | None) -> list[str]:
+    """report.md's "The next command to record" (diagnosis.next_command): the candidate
+    swivels, how far apart the two models predict them, and what to do with the first."""
+    first, second = proposals[0]["predicted"]
+    if purpose == CONFIRM:
+        why = (f"The held-out runs show no discrepancy of their own, so they cannot confirm "
+               f"{first}, which the training runs point to.  Its fit and the {second}, "
+               "simulated on the swivels the dataset lacks (median of "
+               f"{PROPOSAL_STARTS} starts each), are this far apart (RMS z against the "
+               "trials' spread widened by each model's start-to-start scatter; "
+               f"{Z_CONSISTENT} or more is a discrepancy held-out runs would show):")
+        then = ("the fit is then trained on the commands recorded now and tested on one "
+                "where it predicts a discrepancy.")
+    else:
+        why = (f"{first} and {second} each remove most of the held-out discrepancy and the "
+               "recorded commands do not choose between them.  Their fits, simulated on the "
+               f"swivels the dataset lacks (median of {PROPOSAL_STARTS} starts each), are "
+               "this far apart (RMS z against the trials' spread widened by each model's "
+               f"start-to-start scatter; {Z_CONSISTENT} or more tells them apart):")
+        then = ("the fits are then trained on the commands recorded now and tested on the "
+                "one where they predict different measurements.")
+    lines = ["## The next command to record", "", why, "",
+             table(["command", "separation", "feature most apart", first, second],
+                   [[p["command"], _fmt(p["separation"]), p["feature"],
+                     _fmt(p["predicted"][first]), _fmt(p["predicted"][second])]
+                    for p in proposals]), ""]
+    top = proposals[0]
+    if top["separation"] >= Z_CONSISTENT:
+        lines += [f"Record `{top['command']}` (as many trials as the other commands), add its "
+                  f"runs to the dataset and diagnose it again with `--hold-out "
+                  f"'{top['command']}'`: {then}", ""]
+    return lines
+
+
 def _fmt(x, digits: int = 3) -> str:
     return fmt(x, f".{digits}g")
 
@@ -455,25 +490,8 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
                   f"({'better' if pair['better_than_best'] else 'no better'} than the best "
                   "cause alone).", ""]
     if diagnosis["next_commands"]:
-        first, second = diagnosis["next_commands"][0]["predicted"]
-        lines += ["## The next command to record", "",
-                  f"{first} and {second} each remove most of the held-out discrepancy and the "
-                  "recorded commands do not choose between them.  Their fits, simulated on the "
-                  "swivels the dataset lacks (median of "
-                  f"{PROPOSAL_STARTS} starts each), are this far apart (RMS z against the "
-                  f"trials' spread widened by each model's start-to-start scatter; "
-                  f"{Z_CONSISTENT} or more tells them apart):", "",
-                  table(["command", "separation", "feature most apart", first, second],
-                        [[p["command"], _fmt(p["separation"]), p["feature"],
-                          _fmt(p["predicted"][first]), _fmt(p["predicted"][second])]
-                         for p in diagnosis["next_commands"]]), ""]
-        top = diagnosis["next_commands"][0]
-        if top["separation"] >= Z_CONSISTENT:
-            lines += [f"Record `{top['command']}` (as many trials as the other commands), add "
-                      "its runs to the dataset and diagnose it again with `--hold-out "
-                      f"'{top['command']}'`: the fits are then trained on the commands "
-                      "recorded now and tested on the one where they predict different "
-                      "measurements.", ""]
+        lines += _next_command_section(diagnosis["next_commands"],
+                                       diagnosis.get("next_command_purpose"))
     lines += [
         "## Gain on held-out runs", "",
         table(["metric", "base model", f"extended ({g['extended_cause'] or '-'})",
