@@ -835,7 +835,7 @@ def unconfirmed_lead(fits: list, named, base_error: float, base_held: float,
     """The fit a new command could confirm, or None: no cause is named, the records show a
     discrepancy (base_error above Z_CONSISTENT) but the held-out runs show none of their
     own (base_held within it), so nothing held out can confirm the training runs' lead
-    (training_lead).  Issue 21: such "held-out quiet" draws are 7 of the 15 clear causes
+    (training_lead).  Issue 21: such "held-out quiet" draws are 7 of the 16 clear causes
     since draw 1080 that even the hidden truth would not be named on
     (docs/diagnose-ceiling.md); on the 11 such cause draws with stored rankings the
     training lead is the hidden cause in 10 (the held-out best in 8)."""

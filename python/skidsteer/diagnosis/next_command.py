@@ -55,8 +55,6 @@ PROPOSAL_STARTS = 3
 # what a diagnosis's proposals are for (Diagnosis.next_command_purpose)
 SEPARATE = "separate"  # two undecided fits (undecided_pair)
 CONFIRM = "confirm"  # the training runs' lead against the base model (fit.unconfirmed_lead)
-
-
 BASE_MODEL = "base model"  # how a CONFIRM proposal's "predicted" names the base model
 
 
@@ -157,27 +155,37 @@ def undecided_pair(fits: list, named, base_held: float, limit: float, min_gain: 
     return first, second
 
 
+def _note(proposals: list[dict], causes: tuple[str, str], limit: float, *, goal: str,
+          predicts: str, fits: str, shows: str, apart: str) -> str:
+    """What proposal_note and confirmation_note share: the first proposal, to record and
+    hold out, when it reaches `limit`, else that no swivel in the range does.  goal and
+    shows are the clauses that name the models; predicts, with {separation}, says how far
+    apart they land; fits is what --hold-out tests; apart follows the RMS z of a miss."""
+    if not proposals:
+        return ""
+    top = proposals[0]
+    if top["separation"] >= limit:
+        a, b = (top["predicted"][c] for c in causes)
+        return (f"; {goal}, record a swivel at {top['omega_deg_s']:g} deg/s "
+                f"({top['command']}): {predicts.format(separation=top['separation'])} "
+                f"({top['feature']} the most: {a:.2f} against {b:.2f}); diagnose it with "
+                f"--hold-out '{top['command']}' to test the {fits} on it")
+    rates = [p["omega_deg_s"] for p in proposals]
+    return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack {shows} in "
+            f"simulation (at most {top['separation']:.1f} RMS z{apart}, at "
+            f"{top['omega_deg_s']:g} deg/s, against the {limit} a discrepancy needs)")
+
+
 def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
     """The clause a verdict's reason gains from separating_commands' proposals ('' when
     there is no candidate): the command to record, and to hold out once recorded (the fits
     trained on the commands recorded now then predict it, which is what separates them:
     held out by split()'s rule instead, the tied commands decide again; issue 21's draw
     1178, docs/diagnose.md), or that none in the range would do."""
-    if not proposals:
-        return ""
-    top = proposals[0]
-    if top["separation"] >= limit:
-        a, b = (top["predicted"][c] for c in (first.cause, second.cause))
-        return (f"; to tell {first.cause} from {second.cause}, record a swivel at "
-                f"{top['omega_deg_s']:g} deg/s ({top['command']}): their fits predict it "
-                f"{top['separation']:.1f} RMS z apart ({top['feature']} the most: {a:.2f} "
-                f"against {b:.2f}); diagnose it with --hold-out '{top['command']}' to test "
-                f"the fits on it")
-    rates = [p["omega_deg_s"] for p in proposals]
-    return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack tells "
-            f"{first.cause} from {second.cause} in simulation (at most "
-            f"{top['separation']:.1f} RMS z apart, at {top['omega_deg_s']:g} deg/s, against "
-            f"the {limit} a discrepancy needs)")
+    return _note(proposals, (first.cause, second.cause), limit,
+                 goal=f"to tell {first.cause} from {second.cause}",
+                 predicts="their fits predict it {separation:.1f} RMS z apart", fits="fits",
+                 shows=f"tells {first.cause} from {second.cause}", apart=" apart")
 
 
 def confirmation_note(proposals: list[dict], lead, limit: float) -> str:
@@ -186,17 +194,7 @@ def confirmation_note(proposals: list[dict], lead, limit: float) -> str:
     command where the lead's fit predicts a discrepancy of at least `limit` (what the
     held-out runs must show before they can confirm a cause), to record and hold out, or
     that no swivel in the range shows one."""
-    if not proposals:
-        return ""
-    top = proposals[0]
-    if top["separation"] >= limit:
-        a, b = (top["predicted"][c] for c in (lead.cause, BASE_MODEL))
-        return (f"; to confirm {lead.cause}, record a swivel at {top['omega_deg_s']:g} deg/s "
-                f"({top['command']}): its fit predicts it {top['separation']:.1f} RMS z from "
-                f"the base model ({top['feature']} the most: {a:.2f} against {b:.2f}); "
-                f"diagnose it with --hold-out '{top['command']}' to test the fit on it")
-    rates = [p["omega_deg_s"] for p in proposals]
-    return (f"; no swivel of {min(rates):g}-{max(rates):g} deg/s the data lack shows "
-            f"{lead.cause}'s fit apart from the base model in simulation (at most "
-            f"{top['separation']:.1f} RMS z, at {top['omega_deg_s']:g} deg/s, against the "
-            f"{limit} a discrepancy needs)")
+    return _note(proposals, (lead.cause, BASE_MODEL), limit, goal=f"to confirm {lead.cause}",
+                 predicts="its fit predicts it {separation:.1f} RMS z from the base model",
+                 fits="fit", shows=f"shows {lead.cause}'s fit apart from the base model",
+                 apart="")
