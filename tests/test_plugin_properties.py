@@ -58,8 +58,10 @@ def models(draw):
     integrator = draw(st.sampled_from(list(INTEGRATOR_STEP_S)))
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
-    tire = draw(st.sampled_from(["defaults", "coulomb", "relay"]))
-    config = None if tire == "defaults" else random_config(rng, contact_point=tire)
+    tire = draw(st.sampled_from(["defaults", "coulomb", "relay", "combined"]))
+    config = None if tire == "defaults" else random_config(
+        rng, contact_point="relay" if tire == "relay" else "coulomb",
+        slip_law="combined" if tire == "combined" else None)
     floor = draw(st.sampled_from(list(FLOORS) + ["heightfield"]))
     spec = load_spec("extended", None if floor == "heightfield" else floor, tire=config,
                      timestep=INTEGRATOR_STEP_S[integrator])
@@ -166,11 +168,13 @@ PASSIVITY_EXAMPLES = max(10, PROPERTY_EXAMPLES // 4)
 
 
 @settings(PROPERTIES, max_examples=PASSIVITY_EXAMPLES)
-@given(seed=st.integers(0, 2**32 - 1), tire=st.sampled_from(["defaults", "coulomb"]),
+@given(seed=st.integers(0, 2**32 - 1),
+       tire=st.sampled_from(["defaults", "coulomb", "combined"]),
        drop_m=st.floats(0.0, 0.1), tilt_deg=st.floats(0, 15), speed=st.floats(0.0, 1.0))
 def test_with_zero_commands_the_energy_never_grows(seed, tire, drop_m, tilt_deg, speed):
     rng = np.random.default_rng(seed)
-    config = None if tire == "defaults" else random_config(rng, contact_point="coulomb")
+    config = None if tire == "defaults" else random_config(
+        rng, contact_point="coulomb", slip_law="combined" if tire == "combined" else None)
     assert energy_rise(config, rng, drop_m, tilt_deg, speed) <= ENERGY_RIPPLE_J
 
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from tire_reference import (
-    Kinematics, TireParams, advance, forces, friction_factors, normal_force, reset_state,
-    sliding_factor)
+    Kinematics, TireParams, advance, forces, friction_factors, friction_slopes, normal_force,
+    reset_state, sliding_factor)
 
 NORMAL = 70.0  # N, about a quarter of the extended robot's weight
 P = TireParams()
@@ -122,6 +122,84 @@ def test_friction_factors_follow_eq_4_12():
     # (the 20-30 N floor of Sec. 3.3 is then carried by mu_y = v_y / Delta v_x)
     mu = friction_factors(P, loaded(slip_x=-0.04, slip_y=0.001, rolling=0.04))
     assert mu == (1.0, pytest.approx(0.025))
+
+
+COMBINED = TireParams(slip_law="combined")
+
+
+def _slips(rng, n=2000):
+    """Random (slip_x, slip_y, rolling) over the regimes: locked, rolling with small and
+    large slip, m/s."""
+    scale = 10 ** rng.uniform(-4, 0, (n, 3))
+    signs = rng.choice([-1.0, 1.0], (n, 3))
+    out = scale * signs
+    out[rng.random(n) < 0.1, 2] = 0.0  # a wheel that does not turn
+    return out
+
+
+@pytest.mark.parametrize("rho", [1.0, 0.6, 1.4])
+def test_combined_law_keeps_the_force_on_the_friction_ellipse(rho):
+    # Coulomb friction on the resultant slip: the limits' factors (f_x / mu_x N,
+    # f_y / mu_x N) lie inside the ellipse of axes 1 and rho, on it once the slip
+    # saturates, and the force opposes (u_x, rho^2 u_y) (maximum dissipation)
+    p = TireParams(slip_law="combined", lateral_friction_ratio=rho)
+    rng = np.random.default_rng(1)
+    for sx, sy, rolling in _slips(rng):
+        k = loaded(slip_x=sx, slip_y=sy, rolling=rolling)
+        mx, my = friction_factors(p, k)
+        radius = math.hypot(mx, my / rho)
+        assert radius <= 1 + 1e-12
+        q = math.hypot(sx, rho * sy)
+        if q >= abs(rolling) * p.lambda_max and q > 0:
+            assert radius == pytest.approx(1, rel=1e-12)
+        if q > 0:
+            # the direction: mu_x : mu_y = |u_x| : rho^2 |u_y|
+            assert mx * rho ** 2 * abs(sy) == pytest.approx(my * abs(sx), abs=1e-12)
+
+
+def test_combined_law_agrees_with_eq_4_12_in_pure_slip_and_linear_regime():
+    rng = np.random.default_rng(2)
+    for sx, sy, rolling in _slips(rng):
+        for direction, k in enumerate((loaded(slip_x=sx, slip_y=0.0, rolling=rolling),
+                                       loaded(slip_x=0.0, slip_y=sy, rolling=rolling))):
+            # in the direction of the slip; across it too on a rolling wheel (a locked
+            # wheel dragged sideways keeps eq. 4.12a's full longitudinal limit, which
+            # the friction circle, sliding sideways, gives to the lateral one alone)
+            for checked in ((0, 1) if rolling else (direction,)):
+                assert friction_factors(COMBINED, k)[checked] == pytest.approx(
+                    friction_factors(P, k)[checked], rel=1e-12)
+        k = loaded(slip_x=sx, slip_y=sy, rolling=rolling)
+        if math.hypot(sx, sy) < abs(rolling) * P.lambda_max:
+            assert friction_factors(COMBINED, k) == pytest.approx(friction_factors(P, k),
+                                                                  rel=1e-12)
+
+
+def test_combined_law_caps_what_eq_4_12_lets_exceed_mu_n():
+    # spinning in place at 45 degrees of slip: eq. 4.12a/b give mu_x = 1 and mu_y = 1, a
+    # resultant of sqrt(2) mu N; the friction circle gives 1/sqrt(2) each
+    k = loaded(slip_x=0.1, slip_y=0.1, rolling=0.2)
+    assert friction_factors(P, k) == (1.0, 1.0)
+    assert friction_factors(COMBINED, k) == pytest.approx((2 ** -0.5, 2 ** -0.5))
+
+
+@pytest.mark.parametrize("rho", [1.0, 0.6])
+def test_combined_law_slopes_are_the_derivatives_of_its_factors(rho):
+    p = TireParams(slip_law="combined", lateral_friction_ratio=rho)
+    rng = np.random.default_rng(3)
+    for sx, sy, rolling in _slips(rng, 300):
+        k = loaded(slip_x=sx, slip_y=sy, rolling=rolling)
+        slope = friction_slopes(p, k)
+        for direction in (0, 1):
+            h = 1e-7 * max(abs(sx), abs(sy), 1e-6)
+            up, down = (loaded(slip_x=sx + (h if direction == 0 else 0) * s,
+                               slip_y=sy + (h if direction == 1 else 0) * s, rolling=rolling)
+                        for s in (1, -1))
+            numeric = (friction_factors(p, up)[direction]
+                       - friction_factors(p, down)[direction]) / (2 * h)
+            # away from the regime boundary (a kink) the central difference is the slope
+            q = math.hypot(sx, rho * sy)
+            if abs(q - abs(rolling) * p.lambda_max) > 1e-3 * q:
+                assert slope[direction] == pytest.approx(numeric, rel=1e-4, abs=1e-6)
 
 
 def test_wheel_off_the_floor_carries_nothing_and_relaxes():

@@ -25,7 +25,8 @@ RTOL = 1e-9
 
 def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
                   coupling: str = "implicit", falling: bool = False,
-                  load_coupled: bool = False, lugged: bool = False) -> dict[str, str]:
+                  load_coupled: bool = False, lugged: bool = False,
+                  slip_law: str | None = None) -> dict[str, str]:
     floor = str(rng.choice(list(FLOOR_FRICTION)))
     mu_s = rng.uniform(0.3, 1.2)
     config = {
@@ -60,6 +61,12 @@ def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
         # 0.11 m wheel of 6 lugs would have as a rigid polygon
         config["lug_count"] = int(rng.integers(6, 41))
         config["lug_depth"] = rng.uniform(2e-4, 5e-3)
+    if slip_law is not None:
+        # the law for combined slip, with the floor's friction ellipse drawn anisotropic
+        # half the time (lateral over longitudinal 0.4-1.6)
+        config["slip_law"] = slip_law
+        if rng.random() < 0.5:
+            config["lateral_friction_ratio"] = rng.uniform(0.4, 1.6)
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
 
@@ -118,7 +125,11 @@ def compare(m: mujoco.MjModel, ref: TireReference, rng: np.random.Generator, tri
         for wheel, f in zip(ref.wheels, expected):
             if f[0] > 0:
                 k = wheel_contact(m, d, wheel, ref.floors)[0]
-                branches["linear" if friction_factors(ref.params, k)[0] < 1 else "saturated"] += 1
+                mu = friction_factors(ref.params, k)
+                # saturated: eq. 4.12a's mu_x at 1, or the combined law on its ellipse
+                on_limit = (math.hypot(mu[0], mu[1] / ref.params.lateral_friction_ratio)
+                            >= 1 - 1e-12 if ref.params.slip_law == "combined" else mu[0] >= 1)
+                branches["saturated" if on_limit else "linear"] += 1
                 sliding = sliding_factor(ref.params, k)[0]
                 ratio = ref.params.sliding_friction_ratio
                 branches["falling"] += ratio + 0.01 * (1 - ratio) < sliding < 0.99
@@ -154,6 +165,31 @@ def test_plugin_equals_reference_on_a_plane(seed, coupling):
     ref = TireReference(m, TireParams.from_config(config))
     branches = compare(m, ref, rng, trials=60)
     # both branches of eq. 4.12 were exercised on loaded wheels
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+
+
+@pytest.mark.parametrize("coupling", ["implicit", "explicit"])
+@pytest.mark.parametrize("seed", range(4))
+def test_plugin_equals_reference_with_the_combined_slip_law(seed, coupling):
+    # slip_law="combined": the friction ellipse on the resultant slip velocity
+    rng = np.random.default_rng(300 + seed)
+    config = random_config(rng, coupling=coupling, slip_law="combined")
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    assert ref.params.slip_law == "combined"
+    branches = compare(m, ref, rng, trials=60)
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_plugin_equals_reference_with_an_anisotropic_thesis_law(seed):
+    # the thesis's law with the floor's lateral friction a fraction of its longitudinal
+    rng = np.random.default_rng(400 + seed)
+    config = random_config(rng)
+    config["lateral_friction_ratio"] = repr(rng.uniform(0.4, 1.6))
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    branches = compare(m, ref, rng, trials=60)
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
 

@@ -32,6 +32,9 @@ BAD_ATTRIBUTES = [
     ("lug_count", "-1", "must be a whole number in [0, 1000]"),
     ("lug_depth", "0.1", "must lie in [0, 0.05] m"),
     ("radius", "-0.1", "must be > 0"),
+    ("lateral_friction_ratio", "0", "must lie in (0, 10]"),
+    ("lateral_friction_ratio", "nan", "is not a number"),
+    ("lateral_friction_ratio", "12", "must lie in (0, 10]"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler
 ]

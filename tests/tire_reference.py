@@ -80,6 +80,10 @@ class TireParams:
     # the contact normal on a heightfield: "vertical" (the floor geom's up) or
     # "surface" (the cubic floor's own normal under the wheel centre)
     floor_normal: str = _DEFAULTS["floor_normal"]
+    # "thesis": eq. 4.12a/b per direction; "combined": Coulomb friction on the resultant
+    # slip velocity, the friction ellipse of axes mu_x,max and rho mu_x,max
+    slip_law: str = _DEFAULTS["slip_law"]
+    lateral_friction_ratio: float = _DEFAULTS["lateral_friction_ratio"]  # rho
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -104,7 +108,7 @@ class TireParams:
         mu_s, mu_k = FLOOR_FRICTION[floor]
         values = {"mu_static": mu_s, "mu_kinetic": mu_k}
         values.update({k: (v if k in ("contact_point", "coupling", "floor_interpolation",
-                                     "floor_normal")
+                                     "floor_normal", "slip_law")
                            else float(v))
                        for k, v in config.items()})
         return cls(**values)
@@ -128,12 +132,40 @@ def normal_force(p: TireParams, k: Kinematics) -> float:
 
 
 def friction_factors(p: TireParams, k: Kinematics) -> tuple[float, float]:
-    """(mu_x, mu_y) in [0, 1]: eq. 4.12a/b, saturated."""
+    """(mu_x, mu_y), the limits' factors relative to mu_x,max: eq. 4.12a/b, saturated,
+    the lateral one times rho; or the friction ellipse of the combined law."""
+    return _friction(p, k)[0]
+
+
+def friction_slopes(p: TireParams, k: Kinematics) -> tuple[float, float]:
+    """(d mu_x / d u_x, d mu_y / d u_y) within the branch of friction_factors."""
+    return _friction(p, k)[1]
+
+
+def _friction(p: TireParams, k: Kinematics):
     rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
+    rho = p.lateral_friction_ratio
+    if p.slip_law == "combined":
+        # force against (u_x, rho^2 u_y) on the ellipse, magnitude g = min(1, q / (r w lm))
+        q = math.hypot(slip_x, rho * slip_y)
+        scale = rolling * p.lambda_max
+        if q < scale:
+            return ((slip_x / scale, rho ** 2 * slip_y / scale),
+                    (np.sign(k.slip_x) / scale, rho ** 2 * np.sign(k.slip_y) / scale))
+        if q > 0:
+            return ((slip_x / q, rho ** 2 * slip_y / q),
+                    (np.sign(k.slip_x) * (rho * slip_y) ** 2 / q ** 3,
+                     rho ** 2 * np.sign(k.slip_y) * slip_x ** 2 / q ** 3))
+        return (1.0, rho), (0.0, 0.0)
     lam = min(1.0, slip_x / rolling) if rolling > 0 else 1.0
     if lam < p.lambda_max:
-        return lam / p.lambda_max, min(1.0, slip_y / (rolling * p.lambda_max))
-    return 1.0, (min(1.0, slip_y / slip_x) if slip_x > 0 else 1.0)
+        scale = rolling * p.lambda_max
+        mu = (lam / p.lambda_max, min(1.0, slip_y / scale))
+        slope = (np.sign(k.slip_x) / scale, np.sign(k.slip_y) / scale if slip_y < scale else 0.0)
+    else:
+        mu = (1.0, (min(1.0, slip_y / slip_x) if slip_x > 0 else 1.0))
+        slope = (0.0, (np.sign(k.slip_y) / slip_x if 0 < slip_x and slip_y < slip_x else 0.0))
+    return (mu[0], rho * mu[1]), (slope[0], rho * slope[1])
 
 
 def forces(p: TireParams, k: Kinematics, state: np.ndarray) -> np.ndarray:
@@ -224,17 +256,6 @@ def sliding_factor(p: TireParams, k: Kinematics) -> tuple[float, tuple[float, fl
     falling = (1 - p.sliding_friction_ratio) * math.exp(-(k.slip_x ** 2 + k.slip_y ** 2) / vs2)
     return (p.sliding_friction_ratio + falling,
             (-2 * falling * k.slip_x / vs2, -2 * falling * k.slip_y / vs2))
-
-
-def friction_slopes(p: TireParams, k: Kinematics) -> tuple[float, float]:
-    """(d mu_x / d u_x, d mu_y / d u_y) within the branch of friction_factors."""
-    rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
-    lam = min(1.0, slip_x / rolling) if rolling > 0 else 1.0
-    if lam < p.lambda_max:
-        scale = rolling * p.lambda_max
-        return (np.sign(k.slip_x) / scale,
-                np.sign(k.slip_y) / scale if slip_y < scale else 0.0)
-    return 0.0, (np.sign(k.slip_y) / slip_x if 0 < slip_x and slip_y < slip_x else 0.0)
 
 
 def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.ndarray:

@@ -40,8 +40,8 @@ static mjtNum sign(mjtNum x) {
 
 // mu_x, mu_y of eq. 4.12a/b and, when slope is not NULL, d mu_x / d u_x and
 // d mu_y / d u_y within the branch taken (0 where a factor is saturated).
-static void friction(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
-                     mjtNum* slope) {
+static void friction_thesis(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
+                            mjtNum* slope) {
   mjtNum rolling = fabs(k->rolling_speed);
   mjtNum slip_x = fabs(k->slip_x);
   mjtNum slip_y = fabs(k->slip_y);
@@ -70,6 +70,64 @@ static void friction(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
       slope[TIRE_DIR_X] = 0;
       slope[TIRE_DIR_Y] = slip_x > 0 && slip_y < slip_x ? sign(k->slip_y) / slip_x : 0;
     }
+  }
+}
+
+
+// The friction ellipse (slip_law="combined"): Coulomb friction on the resultant
+// slip velocity u = (u_x, u_y), limits mu_x,max and mu_y,max = rho mu_x,max.  By
+// maximum dissipation the force opposes (u_x, rho^2 u_y) and lies on the ellipse,
+// so with q = sqrt(u_x^2 + rho^2 u_y^2) the factors of the two directions' limits
+// (both relative to mu_x,max) are g |u_x| / q and rho^2 g |u_y| / q, where
+// g = min(1, q / (r |omega| lambda_max)) carries eq. 4.12a's linear rise of a
+// rolling wheel's friction with slip (g = 1 for a wheel that does not roll).
+// At rho = 1 it agrees with eq. 4.12a/b in pure longitudinal slip, in pure
+// lateral slip and throughout the linear regime; it differs in combined slip
+// beyond it, where eq. 4.12a/b's resultant exceeds mu N.
+static void friction_combined(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
+                              mjtNum* slope) {
+  mjtNum rho = p->lateral_ratio;
+  mjtNum rolling = fabs(k->rolling_speed);
+  mjtNum slip_x = fabs(k->slip_x);
+  mjtNum slip_y = rho * fabs(k->slip_y);  // the lateral slip in the ellipse's metric
+  mjtNum q = sqrt(slip_x * slip_x + slip_y * slip_y);
+  mjtNum scale = rolling * p->lambda_max;
+
+  if (q < scale) {
+    // linear regime (rolling > 0): g / q = 1 / scale
+    mu[TIRE_DIR_X] = slip_x / scale;
+    mu[TIRE_DIR_Y] = rho * slip_y / scale;
+    if (slope) {
+      slope[TIRE_DIR_X] = sign(k->slip_x) / scale;
+      slope[TIRE_DIR_Y] = rho * rho * sign(k->slip_y) / scale;
+    }
+  } else if (q > 0) {
+    mjtNum q3 = q * q * q;
+    mu[TIRE_DIR_X] = slip_x / q;
+    mu[TIRE_DIR_Y] = rho * slip_y / q;
+    if (slope) {
+      slope[TIRE_DIR_X] = sign(k->slip_x) * slip_y * slip_y / q3;
+      slope[TIRE_DIR_Y] = rho * rho * sign(k->slip_y) * slip_x * slip_x / q3;
+    }
+  } else {
+    // a wheel at rest on the floor: each direction holds up to its full limit
+    mu[TIRE_DIR_X] = 1;
+    mu[TIRE_DIR_Y] = rho;
+    if (slope) slope[TIRE_DIR_X] = slope[TIRE_DIR_Y] = 0;
+  }
+}
+
+
+static void friction(const tireParams* p, const tireKinematics* k, mjtNum mu[2],
+                     mjtNum* slope) {
+  if (p->combined_slip) {
+    friction_combined(p, k, mu, slope);
+    return;
+  }
+  friction_thesis(p, k, mu, slope);
+  if (p->lateral_ratio != 1) {  // the ellipse's lateral axis, eq. 4.12b's factor kept
+    mu[TIRE_DIR_Y] *= p->lateral_ratio;
+    if (slope) slope[TIRE_DIR_Y] *= p->lateral_ratio;
   }
 }
 

@@ -49,6 +49,8 @@ enum {
   ATTR_LUG_DEPTH,
   ATTR_FLOOR_INTERPOLATION,
   ATTR_FLOOR_NORMAL,
+  ATTR_SLIP_LAW,
+  ATTR_LATERAL_FRICTION_RATIO,
   TIRE_NATTRIBUTE
 };
 
@@ -198,6 +200,23 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
     "tilted plane; compression measured along it.  A heightfield read as MuJoCo's "
     "triangles has no normal here (floor_interpolation=\"triangles\" with surface is "
     "refused); planes are the same under both"},
+  [ATTR_SLIP_LAW] = {
+    "slip_law", "", SKIDSTEER_TIRE_CHOICE, NAN, "thesis", 0, 0, 0, 0, 0,
+    "thesis combined", "",
+    "use thesis (default) or combined",
+    "how the friction limits share a slip that is both longitudinal and lateral: thesis, "
+    "eq. 4.12a/b (mu_x = 1 and mu_y = min(1, |v_y| / |Delta v_x|) once |lambda| > "
+    "lambda_max, a resultant up to sqrt(2) mu N); combined, Coulomb friction on the "
+    "resultant slip velocity (the friction circle, or ellipse with lateral_friction_ratio: "
+    "maximum dissipation, Goyal, Ruina & Papadopoulos 1991; the skid-steer force model of "
+    "Wong & Chiang 2001 and Yu et al. 2010), magnitude min(1, |slip| / (r |omega| "
+    "lambda_max)); both agree in pure longitudinal and pure lateral slip"},
+  [ATTR_LATERAL_FRICTION_RATIO] = {
+    "lateral_friction_ratio", "mu_y/mu_x", SKIDSTEER_TIRE_NUMBER, 1, "1", 0, 10, 1, 0, 1,
+    "", "", "must lie in (0, 10]",
+    "the floor's lateral over longitudinal friction (static and kinetic alike): the "
+    "friction ellipse's axes; 1: isotropic, as the thesis takes the lateral pulls of Sec. "
+    "3.3 (the only friction it measured) for both directions"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -403,6 +422,8 @@ static int read_params(const mjModel* m, int instance, tireParams* p, mjtNum* ra
   p->sliding_velocity = cfg.value[ATTR_SLIDING_VELOCITY];
   p->stiffness_y_load_exponent = cfg.value[ATTR_STIFFNESS_Y_LOAD_EXPONENT];
   p->reference_load = cfg.value[ATTR_REFERENCE_LOAD];
+  p->combined_slip = cfg.choice[ATTR_SLIP_LAW] == 1;
+  p->lateral_ratio = cfg.value[ATTR_LATERAL_FRICTION_RATIO];
   *radius = cfg.value[ATTR_RADIUS];
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
   *lug_count = (int)cfg.value[ATTR_LUG_COUNT];
