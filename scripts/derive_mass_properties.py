@@ -1,4 +1,4 @@
-"""Derives the platform body's mass properties written in models/parts/platform.xml.
+"""Derives the platform body's mass properties written in models/pioneer3at/parts/platform.xml.
 
 The thesis measures the *composite* robot only: the SolidWorks inertia tensor
 about the CoM (eq. 5.1) and the CoM 0.23 m above the contact points (Table 5.1).
@@ -6,11 +6,11 @@ The platform weighs 225 N (Sec. 3.3).  The model splits the robot into the
 platform, four wheels and the frame parts (mast, laptop, camera, whose masses
 and places are assumed below).  The platform body then takes whatever is left,
 so the composite reproduces eq. 5.1 and the CoM exactly, and the bare platform
-model (models/pioneer3at.xml) is the same platform without the frame parts.
+model (models/pioneer3at/pioneer3at.xml) is the same platform without the frame parts.
 
 Run:  python scripts/derive_mass_properties.py
 It prints the platform's <inertial> element and the plausibility checks.
-The frame parts' numbers must match models/parts/frame.xml (a test compares the
+The frame parts' numbers must match models/pioneer3at/parts/frame.xml (a test compares the
 compiled models with this script's output).
 """
 

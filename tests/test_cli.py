@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,6 +35,15 @@ def test_swivel_writes_accelerometer_log_in_measured_data_layout(tmp_path, capsy
     assert summary["accelerometer_log"] == str(out)
     assert set(summary["amplitude_m_s2"]) == {"x", "y", "z"}
     assert not list(tmp_path.glob("*.part"))  # written atomically
+
+
+def test_plugin_path_prints_the_library_and_its_folder(capsys):
+    assert main(["plugin-path"]) == 0
+    library = Path(capsys.readouterr().out.strip())
+    assert library.is_absolute() and library.is_file()
+    assert library.name == "libskidsteer_tire.so"
+    assert main(["plugin-path", "--dir"]) == 0
+    assert Path(capsys.readouterr().out.strip()) == library.parent
 
 
 def test_tire_loads_json(capsys):

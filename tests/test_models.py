@@ -60,7 +60,7 @@ def test_masses_follow_the_stated_evidence(extended_model, platform_model):
 
 
 def test_frame_parts_match_the_derivation(extended_model):
-    # models/parts/frame.xml carries the numbers of scripts/derive_mass_properties.py
+    # models/pioneer3at/parts/frame.xml carries the numbers of scripts/derive_mass_properties.py
     m = extended_model
     for name, mass, position, inertia in derivation.parts():
         body = m.body(name)
@@ -97,6 +97,37 @@ def test_models_open_with_plain_mujoco_after_import():
         d = mujoco.MjData(m)
         mujoco.mj_step(m, d)
         assert m.nplugin == 1
+
+
+def _model_bytes(m: mujoco.MjModel) -> bytes:
+    buffer = np.zeros(mujoco.mj_sizeModel(m), np.uint8)
+    mujoco.mj_saveModel(m, None, buffer)
+    return buffer.tobytes()
+
+
+@pytest.mark.parametrize("robot", ["pioneer3at", "husky_a200"])
+def test_scene_is_the_default_build_with_its_floor(robot):
+    # scene.xml, the file MuJoCo's viewers open, compiles to the very model skidsteer
+    # loads as the robot's default build: byte for byte once given the build's name
+    description = load_robot(robot)
+    build = mujoco.MjModel.from_xml_path(str(description.build(None).file))
+    spec = mujoco.MjSpec.from_file(str(REPO / "models" / robot / "scene.xml"))
+    spec.modelname = build.names[:build.names.index(b"\0")].decode()
+    assert _model_bytes(spec.compile()) == _model_bytes(build)
+
+
+@pytest.mark.parametrize("robot", ["pioneer3at", "husky_a200"])
+def test_scene_loads_with_the_plugin_and_stands_on_its_tires(robot):
+    m = mujoco.MjModel.from_xml_path(str(REPO / "models" / robot / "scene.xml"))
+    assert m.nplugin == 1
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    start_m = d.body("chassis").xpos.copy()
+    mujoco.mj_step(m, d, nstep=2000)  # 0.2 s at the models' 0.1 ms step
+    assert np.isfinite(d.qpos).all() and not d.warning.number.any()
+    # 2 cm: three times the Husky's static tire deflection (~7 mm, husky_a200.xml), a
+    # tenth of the 0.2 m a robot off its tires (a floor below the wheels) falls in 0.2 s
+    np.testing.assert_allclose(d.body("chassis").xpos, start_m, atol=0.02)
 
 
 def test_floors_are_named_parameter_sets():

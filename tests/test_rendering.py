@@ -13,6 +13,10 @@ import time
 import numpy as np
 import pytest
 
+from conftest import REPO
+from skidsteer.cli import main
+from skidsteer.simulation.viewer import main as launch_viewer
+
 # CI installs Xvfb and sets this, so that a missing display fails instead of skipping.
 REQUIRED = os.environ.get("SKIDSTEER_REQUIRE_DISPLAY_TESTS") == "1"
 
@@ -43,6 +47,38 @@ def test_offscreen_rendering_with_egl(tmp_path):
     assert not_blank(frame)
 
 
+def test_a_scene_renders_in_plain_mujoco_with_only_the_plugin_library(tmp_path, capsys):
+    # what a MuJoCo user does without skidsteer: load the library `skidsteer plugin-path`
+    # names, then the robot folder's scene.xml (models/README.md)
+    assert main(["plugin-path"]) == 0
+    library = capsys.readouterr().out.strip()
+    script = textwrap.dedent("""
+        import sys, mujoco, numpy as np
+        mujoco.mj_loadPluginLibrary(sys.argv[1])
+        m = mujoco.MjModel.from_xml_path("models/husky_a200/scene.xml")
+        d = mujoco.MjData(m)
+        mujoco.mj_forward(m, d)
+        with mujoco.Renderer(m) as renderer:
+            renderer.update_scene(d)
+            np.save(sys.argv[2], renderer.render())
+        ours = sorted(n for n in sys.modules if n.split(".")[0] == "skidsteer")
+        assert not ours, f"the subprocess imported {ours}"
+    """)
+    out = tmp_path / "frame.npy"
+    env = dict(os.environ, MUJOCO_GL="egl")
+    subprocess.run([sys.executable, "-c", script, library, str(out)], env=env, cwd=REPO,
+                   check=True, timeout=120)
+    frame = np.load(out)
+    assert frame.shape == (240, 320, 3)  # mujoco.Renderer's default size
+    assert not_blank(frame)
+
+
+def test_the_viewer_launcher_names_a_missing_file(tmp_path, capsys):
+    missing = tmp_path / "nowhere.xml"
+    assert launch_viewer(["--mjcf", str(missing)]) == 2
+    assert str(missing) in capsys.readouterr().err
+
+
 def _start_xvfb() -> tuple[subprocess.Popen, str]:
     """An Xvfb server on a free display, and that display, once it accepts clients: Xvfb
     writes the display's number to -displayfd when it is ready to connect.  (Waiting for
@@ -63,7 +99,14 @@ def _start_xvfb() -> tuple[subprocess.Popen, str]:
     raise RuntimeError("Xvfb did not report a display within 30 s")
 
 
-def test_viewer_opens_under_xvfb_and_draws_the_robot():
+# skidsteer's own view, and MuJoCo's viewer on a scene file with the plugin loaded first
+VIEWERS = {"skidsteer view": ["skidsteer.cli", "view", "extended"],
+           "mujoco.viewer, plugin loaded": ["skidsteer.simulation.viewer", "--mjcf",
+                                           "models/husky_a200/scene.xml"]}
+
+
+@pytest.mark.parametrize("command", VIEWERS)
+def test_viewer_opens_under_xvfb_and_draws_the_robot(command):
     if shutil.which("Xvfb") is None:
         if REQUIRED:
             pytest.fail("Xvfb is required (SKIDSTEER_REQUIRE_DISPLAY_TESTS=1) but not installed")
@@ -73,7 +116,7 @@ def test_viewer_opens_under_xvfb_and_draws_the_robot():
     server, display = _start_xvfb()
     env = dict(os.environ, DISPLAY=display)
     env.pop("MUJOCO_GL", None)
-    viewer = subprocess.Popen([sys.executable, "-m", "skidsteer.cli", "view", "extended"], env=env,
+    viewer = subprocess.Popen([sys.executable, "-m", *VIEWERS[command]], env=env, cwd=REPO,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     try:
         frame = None

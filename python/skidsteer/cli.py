@@ -35,6 +35,7 @@ from skidsteer.reports.real_data import diagnose_recordings
 from skidsteer.reports.reproduction import reproduce
 from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
                              robot_names)
+from skidsteer.robot.plugin import library_path
 from skidsteer.simulation.backends import BACKENDS, BackendUnavailable, make_backend
 
 DATA_FORMAT = "docs/data-format.md"  # the dataset layout the readers accept
@@ -395,6 +396,13 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_plugin_path(args: argparse.Namespace) -> int:
+    """The plugin library's absolute path (or folder), for MuJoCo's own viewers to load."""
+    path = library_path().resolve()
+    print(path.parent if args.dir else path)
+    return 0
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from skidsteer.tasks.video import render_swivel  # dm_control and OpenGL: only here
 
@@ -546,6 +554,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--surface", dest="floor", action=_Deprecated, replacement="--floor",
                    help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_view)
+
+    p = sub.add_parser("plugin-path", help="absolute path of the compiled skidsteer.tire plugin "
+                                           "library, for MuJoCo's own viewers (models/README.md)")
+    p.add_argument("--dir", action="store_true", help="print the library's folder instead")
+    p.set_defaults(func=cmd_plugin_path)
 
     p = sub.add_parser("render", help="video (.mp4) and still (.png) of the feed-forward swivel "
                                       "in a skidsteer.tasks task")

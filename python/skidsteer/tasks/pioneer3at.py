@@ -44,7 +44,7 @@ SUITE = containers.TaggedTasks()
 # The thesis's swivel runs: 20 s each (Sec. 3.2), omega* from 2 to 64 deg/s.
 DEFAULT_TIME_LIMIT_S = 20.0
 OMEGA_RANGE_DEG_S = (2.0, 64.0)
-# 100 physics steps of 0.1 ms (the model's step, models/parts/setup.xml) and 10
+# 100 physics steps of 0.1 ms (the model's step, models/pioneer3at/parts/setup.xml) and 10
 # accelerometer samples at the thesis's 1 kHz log rate per action.  100 Hz is
 # ten times the chassis's slowest modes (pitch ~3, roll ~6, yaw ~7 Hz, Table
 # 5.2) and the whole "low" band (< 10 Hz, Sec. 3.2), so a policy can act on the
