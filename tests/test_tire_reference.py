@@ -424,7 +424,7 @@ def _compare_optional_law(seed: int, coupling: str, **law):
 
 
 def test_reference_law_agrees_with_plugin_on_defaults():
-    # the defaults in C (tire_plugin.c) and Python (TireParams) are one table
+    # the defaults in C (tire_config.c) and Python (TireParams) are one table
     m = load_spec("extended").compile()
     ref = TireReference(m, TireParams())
     compare(m, ref, np.random.default_rng(7), trials=20)

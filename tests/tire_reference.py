@@ -1,13 +1,13 @@
 """A readable Python reference of the skidsteer.tire law, for the tests (slow).
 
 Same law, same conventions and same order of operations as
-plugin/tire/tire_law.c and the kinematics of plugin/tire/tire_plugin.c.  The
-tests drive the C plugin and this reference with the same random inputs and
-require them to agree to ~1e-9 relative.  Equation numbers refer to
-S. Mafrica, MSc thesis, 2012 (see plugin/tire/README.md).  The parameters'
-defaults and the floors are the plugin's own contract (skidsteer.robot.tire),
-and so are the wheels and the floor it finds; the law below is written out
-again on purpose.
+plugin/tire/tire_law.c, the kinematics of plugin/tire/tire_contact.c and the
+floors of plugin/tire/tire_floor.c.  The tests drive the C plugin and this
+reference with the same random inputs and require them to agree to ~1e-9
+relative.  Equation numbers refer to S. Mafrica, MSc thesis, 2012 (see
+plugin/tire/README.md).  The parameters' defaults and the floors are the
+plugin's own contract (skidsteer.robot.tire), and so are the wheels and the
+floor it finds; the law below is written out again on purpose.
 """
 
 from __future__ import annotations
@@ -430,7 +430,7 @@ def wheel_contact(m: mujoco.MjModel, d: mujoco.MjData, wheel: Wheel, floors: lis
     return k, np.stack([normal, tx, ty]), point
 
 
-_MAX_ITERATIONS = 20  # tire_plugin.c's TIRE_MAX_ITERATIONS
+_MAX_ITERATIONS = 20  # tire_implicit.c's TIRE_MAX_ITERATIONS
 _SMALLEST_STEP = 1 / 64  # TIRE_SMALLEST_STEP
 _SLIP_TOLERANCE = 1e-10  # m/s, TIRE_SLIP_TOLERANCE
 
@@ -503,7 +503,7 @@ class TireReference:
 
     def implicit_solve(self, d: mujoco.MjData):
         """(forces (nwheel, 3), end-of-step slips (2 nwheel), contact rows J), as
-        tire_plugin.c's implicit_forces solves them."""
+        tire_implicit.c's tire_implicit_forces solves them."""
         m, p, h = self.m, self.params, self.m.opt.timestep
         nv, nw = m.nv, len(self.wheels)
         n = 2 * nw

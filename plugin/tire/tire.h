@@ -5,9 +5,9 @@
 // plugin/tire/README.md for every attribute, its default and its source.
 //
 // The functions here are pure: they take the wheel kinematics and the
-// per-wheel state and return forces or the next state.  tire_plugin.c wires them to
-// MuJoCo; tests/tire_reference.py is the readable reference that
-// the tests hold this code to.
+// per-wheel state and return forces or the next state.  The plugin's units
+// (tire_internal.h) wire them to MuJoCo; tests/tire_reference.py is the readable
+// reference that the tests hold this code to.
 
 #ifndef SKIDSTEER_PLUGIN_TIRE_TIRE_H_
 #define SKIDSTEER_PLUGIN_TIRE_TIRE_H_
@@ -79,7 +79,7 @@ void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum
 // which the rim slips at k->slip_x, k->slip_y (the contact-point state
 // advanced from `state`, which is left unchanged), and slope[d] = d f_d / d u_d
 // within the regime (stick, slip, relay on/off) that the step ends in.  The
-// implicit coupling of tire_plugin.c solves for the slips at which these
+// implicit coupling of tire_implicit.c solves for the slips at which these
 // forces move the robot.
 void tire_step_force(const tireParams* p, const tireKinematics* k, mjtNum h,
                      const mjtNum* state, mjtNum force[3], mjtNum slope[2]);

@@ -6,7 +6,8 @@
 // the same tables from the loaded library (python/skidsteer/robot/tire.py,
 // through ctypes), and the attribute table of plugin/tire/README.md is
 // generated from them (scripts/update_readme_tables.py; a test checks it).
-// Adding an attribute is adding a row here and using it in tire_plugin.c.
+// Adding an attribute is adding a row to kAttributeTable (tire_config.c) and
+// reading it in tire_read_params there.
 
 #ifndef SKIDSTEER_PLUGIN_TIRE_TIRE_CONTRACT_H_
 #define SKIDSTEER_PLUGIN_TIRE_TIRE_CONTRACT_H_

@@ -179,7 +179,7 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 // slope: when not NULL, receives d f / d drive of the end-of-step force
 // f = -D (u - v') - K s' within the regime the step ends in, with
 // kinetic_slope = d kinetic_limit / d drive (the slip-dependent friction of
-// eq. 4.12): the stiffness the implicit coupling of tire_plugin.c needs.
+// eq. 4.12): the stiffness the implicit coupling of tire_implicit.c needs.
 static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
                               mjtNum static_limit, mjtNum kinetic_limit, mjtNum kinetic_slope,
                               mjtNum drive, mjtNum h, mjtNum* st, mjtNum* slope) {
