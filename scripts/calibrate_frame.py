@@ -37,15 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import screen_mechanisms  # noqa: E402  (the swivel measurement of the screen)
-from skidsteer.diagnosis import causes  # noqa: E402
-from skidsteer.diagnosis.causes.mast_compliance import (  # noqa: E402
-    DAMPING_RATIO, PITCH_STIFFNESS_RATIO)
-from skidsteer.experiments.free_response import free_response  # noqa: E402
-from skidsteer.reports import reproduction  # noqa: E402  (Table 5.2 and its comparison)
-from skidsteer.robot import Setup  # noqa: E402
+import screen_mechanisms  # scripts/, beside this file (the swivel measurement of the screen)
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis import thesis_targets  # Table 5.2 and the comparison with it
+from skidsteer.diagnosis.causes.mast_compliance import DAMPING_RATIO, PITCH_STIFFNESS_RATIO
+from skidsteer.experiments.free_response import free_response
+from skidsteer.robot import Setup
 
 MAST = causes.get("mast_compliance")
 
@@ -73,11 +70,11 @@ def free_responses(params: dict | None) -> dict:
 def score(responses: dict) -> tuple[float, float, float]:
     """(largest |frequency error|, largest decay factor) over the axes against Table 5.2,
     and one number: the larger of the two in units of its target (<= 1: both met)."""
-    compared = [reproduction.against_table_5_2(axis, responses[axis]) for axis in AXES]
+    compared = [thesis_targets.against_table_5_2(axis, responses[axis]) for axis in AXES]
     freq_error = max(abs(c["frequency_error"]) for c in compared)
     decay_factor = max(c["decay_factor"] for c in compared)
-    total = max(freq_error / reproduction.FREQUENCY_TARGET,
-                np.log(decay_factor) / np.log(reproduction.DECAY_TARGET_FACTOR))
+    total = max(freq_error / thesis_targets.FREQUENCY_TARGET,
+                np.log(decay_factor) / np.log(thesis_targets.DECAY_TARGET_FACTOR))
     return freq_error, decay_factor, total
 
 
@@ -108,14 +105,14 @@ def main(argv=None) -> int:
     # the prediction uses the frames that fit Table 5.2 best, whether or not they meet
     # both targets (the rigid model itself misses them narrowly): the table says which
     best = sorted([r for r in scored if r[1] is not None], key=lambda r: r[5])
-    measured = reproduction.TABLE_5_2
+    measured = thesis_targets.TABLE_5_2
     lines = [f"`python scripts/calibrate_frame.py {' '.join(argv or sys.argv[1:])}`", "",
              "Fitted set: Table 5.2 (free responses of the extended robot at rest; "
              "measured roll/pitch/yaw "
              + ", ".join(f"{measured[a]['peak_hz']:.2f} Hz, "
                          f"{measured[a]['decay_per_s']:g}/s" for a in AXES)
-             + f").  Targets: frequencies within {reproduction.FREQUENCY_TARGET:.0%}, "
-               f"decay rates within a factor {reproduction.DECAY_TARGET_FACTOR:g}.", "",
+             + f").  Targets: frequencies within {thesis_targets.FREQUENCY_TARGET:.0%}, "
+               f"decay rates within a factor {thesis_targets.DECAY_TARGET_FACTOR:g}.", "",
              "| frame | roll (Hz, 1/s) | pitch (Hz, 1/s) | yaw (Hz, 1/s) | "
              "largest frequency error | largest decay factor | score (<= 1: both met) |",
              "|---|---|---|---|---|---|---|"]

@@ -12,7 +12,7 @@ residue are not features -- across seeded repeats a band peak flips between
 bins far apart and the amplitude spreads by hundreds of percent.  The thesis
 variant carries a real stick-slip limit cycle (~22 Hz, 0.1-0.15 m/s^2).  So an
 axis is "vibrating" when the reference run AND every repeat trial reach
-skidsteer.reports.reproduction.VIBRATION_FLOOR_M_S2 (0.02 m/s^2, 1-50 Hz RMS, the floor the
+skidsteer.diagnosis.thesis_features.VIBRATION_FLOOR_M_S2 (0.02 m/s^2, 1-50 Hz RMS, the floor the
 report uses) on it; only then are its band features stored and compared:
 
     low_band_peak_hz, high_band_peak_hz   Welch PSD maxima in 1-10 / 20-50 Hz
@@ -75,7 +75,7 @@ import scipy
 from skidsteer.data.files import write_atomically
 from skidsteer.features import signals
 from skidsteer.features.extract import AXES, swivel_features
-from skidsteer.reports.reproduction import VIBRATION_FLOOR_M_S2
+from skidsteer.diagnosis.thesis_features import VIBRATION_FLOOR_M_S2
 from skidsteer.robot import Setup, load_model
 from skidsteer.simulation.run import LOG_RATE_HZ, TRIAL_DEFLECTION_M, run_batch
 

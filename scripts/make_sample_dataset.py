@@ -1,9 +1,9 @@
 """Writes data/sample/: the small measured-style dataset the README's first command diagnoses.
 
-Recipe (this file is it): the extended robot swivelling on concrete at 15, 30
-and 60 deg/s, three trials of 10 s each, recorded through the default sensor
-chain (skidsteer.simulation.sensor_chain.SensorChain: 80 Hz bandwidth, noise, 60 Hz hum,
-zero-g offset errors) as CSV (LabVIEW xlsx is 10x larger), with one hidden
+Recipe (skidsteer.diagnosis.synth.SAMPLE_RECIPE): the extended robot swivelling on
+concrete at 15, 30 and 60 deg/s, three trials of 10 s each, recorded through the default
+sensor chain (skidsteer.simulation.sensor_chain.SensorChain: 80 Hz bandwidth, noise, 60 Hz
+hum, zero-g offset errors) as CSV (LabVIEW xlsx is 10x larger), with one hidden
 effect.  The effect and its parameters are written to data/sample.truth.json,
 outside the dataset, so that `diagnose data/sample` cannot see them.
 
@@ -17,20 +17,8 @@ from pathlib import Path
 
 import skidsteer  # noqa: F401  (registers the plugin)
 from skidsteer.data.files import write_atomically
-from skidsteer.diagnosis.synth import make_dataset
+from skidsteer.diagnosis.synth import SAMPLE_RECIPE, make_dataset
 from skidsteer.robot import Setup
-
-RECIPE = {
-    "effect": "mast_compliance",
-    "params": {"stiffness_n_m_per_rad": 250.0},
-    "seed": 2012,
-    "omegas": (15.0, 30.0, 60.0),
-    "trials": 3,
-    "duration_s": 10.0,
-    "build": "extended",
-    "floor": "concrete",
-    "file_format": "csv",
-}
 
 
 def main() -> None:
@@ -42,11 +30,11 @@ def main() -> None:
     # run leaves the previous sample (and a .partial directory) behind
     partial = args.out.with_name(args.out.name + ".partial")
     shutil.rmtree(partial, ignore_errors=True)
-    recipe = dict(RECIPE)
+    recipe = dict(SAMPLE_RECIPE)
     setup = Setup(build=recipe.pop("build"), floor=recipe.pop("floor"))
     truth = make_dataset(partial, setup=setup, **recipe)
     path = args.out.with_name(args.out.name + ".truth.json")
-    text = json.dumps({**truth, "recipe": {k: v for k, v in RECIPE.items()}}, indent=2) + "\n"
+    text = json.dumps({**truth, "recipe": dict(SAMPLE_RECIPE)}, indent=2) + "\n"
     if args.out.exists():
         shutil.rmtree(args.out)
     partial.rename(args.out)

@@ -4,8 +4,9 @@ predicted set, with its lift-off onset and the yaw rate beside it.
 
 The features, their rules and thresholds, and which of them are in the fitted set
 (every run the rule reads is of the extended build on concrete or carpet at
-omega <= 40 deg/s) are python/skidsteer/reports/thesis_measurements.toml's; the runs
-are skidsteer.reports.reproduction.mechanism_features's.  No mechanism here was
+omega <= 40 deg/s) are python/skidsteer/reports/thesis_measurements.toml's, decided by
+skidsteer.diagnosis.thesis_features; the runs are
+skidsteer.reports.reproduction.mechanism_features's.  No mechanism here was
 fitted on a swivel feature: each is at the middle of its physical prior (the
 screen's, scripts/screen_mechanisms.py) or, for the calibrated frame, at the
 best fit to Table 5.2 (docs/reproduction/frame_calibration.md).  So every verdict
@@ -32,15 +33,12 @@ from typing import Callable
 
 import mujoco
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import belt_coupling_study  # noqa: E402  (the belts' rigid limit)
-import screen_mechanisms  # noqa: E402  (the screen's mechanisms and priors)
-from skidsteer.diagnosis import causes  # noqa: E402
-from skidsteer.diagnosis.causes.mast_compliance import (  # noqa: E402
-    DAMPING_RATIO, PITCH_STIFFNESS_RATIO)
-from skidsteer.reports import reproduction  # noqa: E402
-from skidsteer.robot import Setup, load_spec  # noqa: E402
+import screen_mechanisms  # scripts/, beside this file (the screen's mechanisms and priors)
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.causes.mast_compliance import DAMPING_RATIO, PITCH_STIFFNESS_RATIO
+from skidsteer.diagnosis.thesis_targets import MEASURED
+from skidsteer.reports import reproduction
+from skidsteer.robot import Setup, load_spec
 
 # The screen's converged step for the steady swivel (docs/reproduction/mechanisms.md:
 # the falling friction's amplitudes move by 30 % between 1e-4 and 2.5e-5 s)
@@ -54,6 +52,20 @@ CALIBRATED_FRAME = {"stiffness_n_m_per_rad": 3000.0, PITCH_STIFFNESS_RATIO.name:
 CALIBRATED_FRAME_INTERVALS = ("roll stiffness 1702-3000 N m/rad (3000: the prior's top), "
                               "pitch x10-x100, damping 1-10 % (not identified)")
 BUILDS = ("extended", "platform")
+# The belt couplings' rigid limit (the thesis's Assumption 4: a side's wheels turn
+# together): the shortest time constant MuJoCo takes at 1e-4 s (2 steps) and an impedance
+# of 0.99 (MuJoCo's default, 0.9-0.95, leaves the constraint 5-10 % soft whatever the time
+# constant); docs/reproduction/belt_coupling.md measured that the limit is reached
+RIGID_SOLREF = (0.0002, 1.0)
+RIGID_SOLIMP = (0.99, 0.99, 0.001, 0.5, 2.0)
+
+
+def rigid_belts(spec: mujoco.MjSpec) -> None:
+    """Every joint equality (the belts) at the rigid limit."""
+    for eq in spec.equalities:
+        if eq.type == mujoco.mjtEq.mjEQ_JOINT:
+            eq.solref = list(RIGID_SOLREF)
+            eq.solimp = list(RIGID_SOLIMP)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,7 +95,7 @@ class Candidate:
                 applicable.append(edit)
             if self.robot_edit is not None:
                 applicable.append(self.robot_edit)
-            out[build] = screen_mechanisms._compose(*applicable) if applicable else None
+            out[build] = screen_mechanisms.compose(*applicable) if applicable else None
         return out
 
     def tire(self) -> dict | None:
@@ -129,12 +141,12 @@ def candidates() -> list[Candidate]:
         out.append(Candidate(f"calibrated_frame+{name}", (frame, forced[name]),
                              f"the calibrated frame and {name} at its prior's middle"))
     # not a mechanism but the base model with its belt couplings at the rigid limit the
-    # thesis assumes (Assumption 4; scripts/belt_coupling_study.py)
+    # thesis assumes (Assumption 4; docs/reproduction/belt_coupling.md)
     out.append(Candidate("rigid_belts", (mechanism("base", "base"),),
                          "the base model with each side's axles coupled rigidly "
-                         f"(solref {belt_coupling_study.RIGID_SOLREF[0]:g} s, impedance "
-                         f"{belt_coupling_study.RIGID_SOLIMP[0]:g}; shipped: 0.005 s, "
-                         "MuJoCo's default impedance)", belt_coupling_study.rigid_belts))
+                         f"(solref {RIGID_SOLREF[0]:g} s, impedance "
+                         f"{RIGID_SOLIMP[0]:g}; shipped: 0.005 s, "
+                         "MuJoCo's default impedance)", rigid_belts))
     return out
 
 
@@ -148,7 +160,7 @@ def markdown(results: list[dict], command: str) -> str:
     lines = [f"`{command}`", "",
              "Fitted set (what item 3 allows a calibration on: the extended build on "
              "concrete and carpet at omega <= 40 deg/s): "
-             + ", ".join(k for k in keys if reproduction.MEASURED.fitted(k))
+             + ", ".join(k for k in keys if MEASURED.fitted(k))
              + ".  No mechanism below was fitted on a swivel feature, so every verdict is a "
              "prediction.", "",
              "| mechanism | reproduced (of 22) | fitted set | predicted set | lift fraction at "
@@ -172,7 +184,7 @@ def markdown(results: list[dict], command: str) -> str:
               "| feature | " + " | ".join(r["name"] for r in results) + " |",
               "|---|" + "---|" * len(results)]
     for i, key in enumerate(keys):
-        tag = " (f)" if reproduction.MEASURED.fitted(key) else ""
+        tag = " (f)" if MEASURED.fitted(key) else ""
         cells = ["R" if res["features"][i]["reproduced"] else "-" for res in results]
         lines.append(f"| {key}{tag} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

@@ -78,7 +78,8 @@ def _band(x: np.ndarray, fs: float) -> np.ndarray:
     return signal.sosfiltfilt(sos, x, axis=0)
 
 
-def _compose(*edits):
+def compose(*edits):
+    """One MjSpec edit doing each of `edits` in turn (None: skipped)."""
     def edit(spec):
         for e in edits:
             if e is not None:
@@ -93,7 +94,7 @@ def simulate(setup: Setup, edit, omegas, duration_s: float, nthread: int = 2,
     def add_sites(spec):
         holder["sites"] = _contact_sites(spec)
 
-    m = load_model(setup, tire=tire, edit=_compose(edit, add_sites), timestep=timestep)
+    m = load_model(setup, tire=tire, edit=compose(edit, add_sites), timestep=timestep)
     r = roles.roles_of(m)
     dt = m.opt.timestep
     nstep = int(round(duration_s / dt))
@@ -336,7 +337,7 @@ class Mechanism:
 
     def edit(self):
         cause = causes.get(self.cause) if self.cause else None
-        return _compose(drivetrain_edit(**self.drive) if self.drive else None,
+        return compose(drivetrain_edit(**self.drive) if self.drive else None,
                         (lambda spec: cause.apply(spec, self.params, 1)) if cause else None)
 
 

@@ -17,19 +17,15 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import sys
 from pathlib import Path
 
 from skidsteer.data.files import write_atomically
+from skidsteer.diagnosis import benchmark_rows
 from skidsteer.reports.markdown import table as _table
 from skidsteer.reports.reproduction import summary_rows
 from skidsteer.robot import tire
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "scripts" / "bench"))
-
-import bench_diagnose_ceiling as ceiling  # noqa: E402
-import bench_diagnose_generalisation as generalisation  # noqa: E402
 
 PLUGIN_README = REPO / "plugin" / "tire" / "README.md"
 # the README's fresh draws: from the first drawn after the held-out errors became
@@ -53,17 +49,17 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
                       draws_from: int = FRESH_FROM) -> str:
     """The README's table of diagnose on fresh draws: the draws from draws_from on and the
     whole table, each as the two benchmarks' summaries count them."""
-    newest = generalisation.newest_rows(results)
-    truths = list(generalisation.newest_rows(rows_of_ceiling).values())
-    verdicts = [ceiling.judged(r, newest[r["case"]]) for r in truths]
+    newest = benchmark_rows.newest_rows(results)
+    truths = list(benchmark_rows.newest_rows(rows_of_ceiling).values())
+    verdicts = [benchmark_rows.judged(r, newest[r["case"]]) for r in truths]
 
     def rate(k: int, n: int) -> str:  # the README writes "85 %"
-        return generalisation.fraction(k, n).replace("%)", " %)")
+        return benchmark_rows.fraction(k, n).replace("%)", " %)")
 
     def line(label: str, rows: list[dict], which: list[int]) -> list[str]:
-        rated = {k: generalisation.right_of(v) for k, v in generalisation.groups(rows).items()}
-        truth = ceiling.counts([truths[i] for i in which], [verdicts[i] for i in which])
-        wrong = sum(generalisation.wrong_name(r) for r in rows)
+        rated = {k: benchmark_rows.right_of(v) for k, v in benchmark_rows.groups(rows).items()}
+        truth = benchmark_rows.counts([truths[i] for i in which], [verdicts[i] for i in which])
+        wrong = sum(benchmark_rows.wrong_name(r) for r in rows)
         return [label, str(len(rows)),
                 f"{rate(*rated['effects'])}; {rate(*rated['judged'])} where the held-out "
                 "command shows it", str(wrong),
@@ -71,7 +67,7 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
                 f"{rate(*truth['named'])}; {rate(*truth['judged'])}", rate(*truth['diagnose'])]
 
     rows = list(newest.values())
-    later = generalisation.drawn_from(rows, draws_from)
+    later = benchmark_rows.drawn_from(rows, draws_from)
     seeds = [r["seed"] for r in later]
     return _table(
         ["draws", "datasets", "clear causes named right", "wrong names",
@@ -80,7 +76,7 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
          "diagnose, where the truth would be named"],
         [line(f"{min(seeds)}-{max(seeds)} (drawn after the held-out errors became medians "
               "over 5 starts)", later,
-              ceiling.drawn_from_indices(truths, newest, draws_from)),
+              benchmark_rows.drawn_from_indices(truths, newest, draws_from)),
          line("all (every code version, a draw's newest row)", rows,
               list(range(len(truths))))])
 

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.benchmark_rows import row_outcome, wrong_name
 
 sys.path.insert(0, str(REPO / "scripts" / "bench"))
 
@@ -124,19 +126,17 @@ def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
     outcome that names nothing, counted in the nulls' column instead."""
     with (DOCS / "diagnose-generalisation.jsonl").open() as f:
         rows = {r["case"]: r for r in map(json.loads, f)}
-    right = next(r for r in rows.values() if bench_diagnose_generalisation._outcome(r) == "right"
-                 and r["effect"] in bench_diagnose_generalisation.causes.CAUSES
-                 and "ranking" in r and "base_train" in r)
-    assert not bench_diagnose_generalisation.wrong_name(right)
+    right = next(r for r in rows.values() if row_outcome(r) == "right"
+                 and r["effect"] in causes.CAUSES and "ranking" in r and "base_train" in r)
+    assert not wrong_name(right)
     # the same row with its hidden effect swapped for another cause: named, and wrong
-    other = next(c for c in sorted(bench_diagnose_generalisation.causes.CAUSES)
-                 if c != right["effect"])
-    assert bench_diagnose_generalisation.wrong_name({**right, "effect": other})
+    other = next(c for c in sorted(causes.CAUSES) if c != right["effect"])
+    assert wrong_name({**right, "effect": other})
     # a null the verdict does not call no-discrepancy: wrong, but no name
     null = {**right, "effect": None, "baseline_error": 2.003, "held_out": [1.42, 1.48],
             "verdict": "unexplained", "cause": None, "ranking": []}
-    assert bench_diagnose_generalisation._outcome(null) == "wrong"
-    assert not bench_diagnose_generalisation.wrong_name(null)
+    assert row_outcome(null) == "wrong"
+    assert not wrong_name(null)
 
 
 @pytest.mark.parametrize("option, named", [(["--timestep", "5e-05"], "step"),
@@ -162,98 +162,18 @@ def test_a_results_file_holds_rows_of_one_step_and_one_scale(tmp_path, capsys, o
     assert str(results) in err and named in err
 
 
-def test_the_model_spread_survey_names_a_draw_it_has_no_row_of(tmp_path, capsys):
-    import model_spread_survey
-    with pytest.raises(SystemExit) as stopped:
-        model_spread_survey.main(["draw-1211", "draw-0", "--out", str(tmp_path),
-                                  "--rows", str(tmp_path / "rows.jsonl")])
-    assert stopped.value.code == 2
-    assert "no row of draw-0" in capsys.readouterr().err
-    assert not (tmp_path / "rows.jsonl").exists()  # refused before any draw ran
-
-
-def test_the_regime_map_reads_the_spread_of_bands_above_the_sensor_floor():
-    import regime_map
-    # three bands over 4 starts: two regimes (1e-5 and 1e-7), one steady band, one at
-    # the sensor's floor (1e-9, below NOISE_FLOOR_LOG10 = -8: left out however it spreads)
-    power = np.array([[1e-5, 1e-6, 1e-9], [1e-7, 1e-6, 1e-11],
-                      [1e-5, 1e-6, 1e-9], [1e-7, 1e-6, 1e-11]])
-    row = regime_map.band_spread(power, ["two", "one", "floor"])
-    assert row["bands"] == 2 and row["worst"] == "two"
-    assert row["max_sd"] == pytest.approx(np.std([-5, -7, -5, -7], ddof=1))
-    assert row["median_sd"] == pytest.approx(row["max_sd"] / 2)
-    assert row["worst_values"] == [-5, -7, -5, -7]
-    # a quiet command (issue 21: concrete at 50 deg/s) has no band to read, not a crash
-    quiet = regime_map.band_spread(np.full((4, 3), 1e-10), ["a", "b", "c"])
-    assert quiet == {"bands": 0, "max_sd": None, "median_sd": None, "worst": None,
-                     "worst_values": []}
-
-
-def test_the_floor_sensitivity_counts_a_band_lifted_out_of_the_noise_from_the_noise():
-    import floor_sensitivity
-    from regime_map import NOISE_FLOOR_LOG10, steady_bands
-
-    n = len(steady_bands())
-    flat = np.full((3, n), -20.0)  # every band far below the sensor's floor (-8) ...
-    flat[:, 0] = [-6.0, -6.2, -5.8]  # ... but a loud one, which a floor moves by 0.5
-    rough = [np.full((3, n), -20.0), np.full((3, n), -20.0)]
-    rough[0][:, 0], rough[1][:, 0] = -5.5, -6.0
-    rough[1][:, 1] = -5.0  # a band the floor lifts out of the noise: 3 decades from -8
-    row = floor_sensitivity.shift(flat, rough)
-    assert row["bands"] == 2  # the others stay below the noise on every floor: left out
-    assert row["worst"] == steady_bands()[1] and row["max_shift"] == pytest.approx(
-        -5.0 - NOISE_FLOOR_LOG10)
-    assert row["worst_flat"] == -20.0 and row["worst_rough"] == [-20.0, -5.0]
-    assert row["median_shift"] == pytest.approx((0.5 + 3.0) / 2)
-    assert floor_sensitivity.shift(np.full((2, n), -20.0), [np.full((2, n), -19.0)]) == {
-        "bands": 0, "max_shift": None, "median_shift": None, "worst": None}
-
-
-def test_extra_command_needs_a_change_and_refuses_a_command_the_draw_has(tmp_path, capsys):
-    # a draw diagnosed again must differ from its row: one more command, another step, or
-    # both; a command the draw already has is refused by name (both before any simulation)
-    import extra_command
-    with pytest.raises(SystemExit):
-        extra_command.main(["1211", "--out", str(tmp_path)])
-    assert "give an extra command, a --timestep, or both" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        extra_command.main(["1211", "30", "--out", str(tmp_path)])  # 1211: 30/55/60 deg/s
-    assert "already has 30 deg/s" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        extra_command.main(["999", "--timestep", "5e-5", "--out", str(tmp_path)])
-    assert "no row draw-999" in capsys.readouterr().err
-
-
-def test_diagnosis_stages_names_the_fit_functions_and_refuses_a_used_cache(tmp_path, capsys):
-    import traceback
-
-    import diagnosis_stages
-
-    fit_py = str(REPO / "python" / "skidsteer" / "diagnosis" / "fit.py")
-    stack = [traceback.FrameSummary(str(REPO / "python" / "skidsteer" / "cli.py"), 1, "main"),
-             *(traceback.FrameSummary(fit_py, 1, name) for name in
-               ("diagnose_observed", "fit_cause", "grid_search", "__call__", "_simulate"))]
-    assert diagnosis_stages.stage_of(stack) == "_simulate < __call__ < grid_search"
-    assert diagnosis_stages.stage_of(stack[:1]) == "(outside diagnosis.fit)"
-    # a cache already there would hand back stored simulations uncounted
-    (tmp_path / "cache").mkdir()
-    with pytest.raises(SystemExit):
-        diagnosis_stages.main(["data/sample", "--out", str(tmp_path)])
-    assert "cache" in capsys.readouterr().err
-
-
 def test_rigid_belts_stiffen_the_belt_couplings_only():
-    import belt_coupling_study as study
+    import mechanism_features  # scripts/, on sys.path by conftest
     from skidsteer.robot import load_model
 
     shipped = load_model("extended", "concrete")
-    rigid = load_model("extended", "concrete", edit=study.rigid_belts)
+    rigid = load_model("extended", "concrete", edit=mechanism_features.rigid_belts)
     joints = shipped.eq_type == mujoco.mjtEq.mjEQ_JOINT
     assert joints.sum() == 2  # a belt per side (models/pioneer3at/parts/drive.xml)
     np.testing.assert_array_equal(rigid.eq_solref[joints],
-                                  [study.RIGID_SOLREF] * int(joints.sum()))
+                                  [mechanism_features.RIGID_SOLREF] * int(joints.sum()))
     np.testing.assert_array_equal(rigid.eq_solimp[joints],
-                                  [study.RIGID_SOLIMP] * int(joints.sum()))
+                                  [mechanism_features.RIGID_SOLIMP] * int(joints.sum()))
     # nothing else of the model moves
     np.testing.assert_array_equal(rigid.body_mass, shipped.body_mass)
     assert rigid.opt.timestep == shipped.opt.timestep

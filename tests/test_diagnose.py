@@ -33,12 +33,14 @@ from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Compari
                                             Simulated, model_factory, simulate_group,
                                             wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.fit import (GRID_POINTS, REFINE_CONTENDERS, REFINE_MAX_STEPS,
-                                     PROFILE_MOVES, REFINE_STEPS, STARTS, _interval,
-                                     contenders, fit_every_parameter, interval_bound,
-                                     unprobed_sides,
-                                     median_error, profile_factor, refine_parameters)
+from skidsteer.diagnosis.evaluate import STARTS, median_error
+from skidsteer.diagnosis.intervals import interval, interval_bound, unprobed_sides
+from skidsteer.diagnosis.search import (GRID_POINTS, PROFILE_MOVES, REFINE_CONTENDERS,
+                                        REFINE_MAX_STEPS, REFINE_STEPS, contenders,
+                                        fit_every_parameter, refine_parameters)
+from skidsteer.diagnosis.split import holds_out_commands
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset, truth_edit
+from skidsteer.diagnosis.verdict import profile_factor
 from skidsteer.features.extract import N_POWER
 from skidsteer.features.extract import comparison_feature_names as feature_names
 from skidsteer.features.extract import comparison_features as run_features
@@ -83,7 +85,7 @@ def test_frame_causes_do_not_apply_to_the_bare_platform(name):
 
 
 def test_a_rough_floor_is_not_fitted_to_runs_that_drive_off_it():
-    from skidsteer.diagnosis.fit import fit_cause
+    from skidsteer.diagnosis.search import fit_cause
     from skidsteer.simulation.run import run_batch
 
     rough = causes.get("ground_roughness")
@@ -329,7 +331,7 @@ def test_split_holds_out_the_commands_a_user_names():
     both = diagnosis.split(obs, held_out=["v0-w10 tile extended", "v0-w60"])
     assert list(both[1]) == [0, 1, 2, 9, 10, 11] and list(both[0]) == [3, 4, 5, 6, 7, 8]
     # held out by the user, a command is a new one even with fewer than three
-    assert diagnosis.fit.holds_out_commands(obs, ["v0-w60"])
+    assert holds_out_commands(obs, ["v0-w60"])
     with pytest.raises(ValueError, match=r"'v0-w45'.*no such command.*v0-w10 tile extended"):
         diagnosis.split(obs, held_out=["v0-w45"])
     with pytest.raises(ValueError, match="every command"):
@@ -341,7 +343,7 @@ def test_split_holds_out_the_commands_a_user_names():
 
 class _Surface:
     """A stand-in for a cause's simulations (what refine_parameters sees through
-    _Evaluations): the training error is a known function of the parameters, and every
+    evaluate.Evaluations): the training error is a known function of the parameters, and every
     point asked for is kept."""
 
     def __init__(self, error):
@@ -537,7 +539,7 @@ def test_a_cause_whose_design_beats_its_main_fit_is_refined_whatever_its_rank():
 def test_an_interval_open_on_one_side_reaches_the_prior():
     p = causes.get("mast_compliance").held[1]  # pitch_stiffness_ratio, 0.1-100
     # the error rises to the right only: the left side is not bounded by the data
-    lo, hi = _interval([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], 6, p)
+    lo, hi = interval([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], 6, p)
     assert lo == p.low and 1.0 < hi < 2.0
     # nothing was evaluated below 0.5: open for want of a probe, which the fit records
     assert unprobed_sides([(0.5, 1.0), (1.0, 1.0), (2.0, 3.0)], p, (lo, hi)) == ["below"]
@@ -545,15 +547,15 @@ def test_an_interval_open_on_one_side_reaches_the_prior():
     # bound as refine_parameters' clipped probes reach it, from_unit(0), which may differ
     # from p.low in its last digit)
     at_bound = [(float(p.from_unit(0.0)), 1.0), (0.5, 1.0), (1.0, 1.0), (2.0, 3.0)]
-    assert _interval(at_bound, 6, p)[0] == p.low
-    assert unprobed_sides(at_bound, p, _interval(at_bound, 6, p)) == []
+    assert interval(at_bound, 6, p)[0] == p.low
+    assert unprobed_sides(at_bound, p, interval(at_bound, 6, p)) == []
     # and an interval open above for want of a probe (nothing evaluated past 2)
     rising_left = [(0.5, 3.0), (1.0, 1.0), (2.0, 1.0)]
-    assert unprobed_sides(rising_left, p, _interval(rising_left, 6, p)) == ["above"]
+    assert unprobed_sides(rising_left, p, interval(rising_left, 6, p)) == ["above"]
     # one point, inside the prior: open both ways, for want of any probe
-    assert unprobed_sides([(1.0, 1.0)], p, _interval([(1.0, 1.0)], 6, p)) == ["below", "above"]
+    assert unprobed_sides([(1.0, 1.0)], p, interval([(1.0, 1.0)], 6, p)) == ["below", "above"]
     # the report says so after the interval
-    from skidsteer.reports.diagnosis import unprobed_note
+    from skidsteer.diagnosis.intervals import unprobed_note
     assert unprobed_note(["below", "above"]) == "; not probed below or above"
     assert unprobed_note([]) == unprobed_note(None) == ""
 
@@ -567,7 +569,7 @@ def test_an_interval_follows_a_quadratic_profile_between_the_probes():
     p = causes.get("mast_compliance").held[0]
     assert p.log
     points = [(p.from_unit(0.3 + du), float(np.sqrt(1 + 50 * du ** 2))) for du in (-0.1, 0, 0.1)]
-    lo, hi = _interval(points, 9, p)
+    lo, hi = interval(points, 9, p)
     half = np.sqrt((1 / 9) / 50)
     assert p.to_unit(lo) == pytest.approx(0.3 - half, abs=1e-9)
     assert p.to_unit(hi) == pytest.approx(0.3 + half, abs=1e-9)
@@ -577,17 +579,17 @@ def test_an_interval_is_read_against_the_fits_own_start_to_start_scatter():
     p = causes.get("friction_levels").main  # mu_static, 0.4-1.2, linear
     # one evaluation per value (one start each) on a noisy plateau that rises steeply at
     # 0.56; the fit is the luckiest draw, 2.18 at 0.495 (issue 21's draw 1204: its
-    # training errors at these values, from one start each, measured with
-    # scripts/bench/profile_fit.py; the fit's five starts are below)
+    # training errors at these values, from one start each, measured with a profile
+    # study script since removed; the fit's five starts are below)
     profile = [(0.40, 2.80), (0.45, 2.89), (0.47, 2.41), (0.48, 2.48), (0.495, 2.18),
                (0.52, 2.45), (0.56, 4.59), (0.64, 4.94)]
-    lucky = _interval(profile, 6, p)
+    lucky = interval(profile, 6, p)
     assert lucky[0] > 0.48 and lucky[1] < 0.52  # only the lucky draw's neighbourhood
     starts = [2.18, 2.21, 2.10, 3.15, 3.08]  # the fit's training error from each start
     bound = interval_bound(starts, 2.18, 6)
     e2 = np.square(starts)
     assert bound == pytest.approx(np.median(e2) * 7 / 6 + np.std(e2, ddof=1))
-    low, high = _interval(profile, 6, p, bound)
+    low, high = interval(profile, 6, p, bound)
     assert low == p.low and 0.52 < high < 0.56  # the plateau, open below: 0.4 is inside
     # a fit whose starts agree keeps the single-start bound, and the bound never falls
     # below it (a start-0 draw worse than the others' median)
@@ -688,9 +690,11 @@ def test_the_search_reads_the_median_over_its_starts(tmp_path, monkeypatch):
     # N = 1 (the default) is the start from rest alone, the search as it always was
     from skidsteer.data.dataset import Group
     from skidsteer.diagnosis import comparison as comparison_module
-    from skidsteer.diagnosis import fit as fit_module
+    from skidsteer.diagnosis import evaluate as evaluate_module
+    from skidsteer.diagnosis import search as search_module
     from skidsteer.diagnosis.comparison import simulate_groups
-    from skidsteer.diagnosis.fit import FIT_SEED, _Evaluations
+    from skidsteer.diagnosis.evaluate import Evaluations
+    from skidsteer.diagnosis.search import FIT_SEED
     from skidsteer.simulation.backends import LocalBackend
     from skidsteer.simulation.cache import SimulationCache
 
@@ -709,7 +713,7 @@ def test_the_search_reads_the_median_over_its_starts(tmp_path, monkeypatch):
     assert len(set(per_start)) == 3  # the starts differ, so the median is one of them
     cache = SimulationCache(tmp_path)
     for n in (1, 3):
-        evaluate = _Evaluations(slip, comp, groups, 8.0, train, None, SensorChain(),
+        evaluate = Evaluations(slip, comp, groups, 8.0, train, None, SensorChain(),
                                 LocalBackend(2), None, cache, n)
         assert evaluate([(params, FIT_SEED)]) == [float(np.median(per_start[:n]))]
         kept = evaluate.best(FIT_SEED)[2]
@@ -719,13 +723,13 @@ def test_the_search_reads_the_median_over_its_starts(tmp_path, monkeypatch):
     # only the other STARTS - 3, without the cache too
     evaluate.stored = None
     simulated = []
-    monkeypatch.setattr(fit_module, "simulate_groups",
+    monkeypatch.setattr(evaluate_module, "simulate_groups",
                         lambda jobs, *a, **k: simulated.extend(k["starts"])
                         or comparison_module.simulate_groups(jobs, *a, **k))
-    fit = fit_module.Fit("slip_lambda_max", params, "lambda_max", (0.0, 1.0),
-                         evaluate.done[next(iter(evaluate.done))][0], 1.0, 1.0, kept, [],
-                         factory=factory, evaluator=evaluate)
-    scattered = fit_module.with_start_scatter(fit)
+    fit = search_module.Fit("slip_lambda_max", params, "lambda_max", (0.0, 1.0),
+                            evaluate.done[next(iter(evaluate.done))][0], 1.0, 1.0, kept, [],
+                            factory=factory, evaluator=evaluate)
+    scattered = search_module.with_start_scatter(fit)
     assert sorted(simulated) == list(range(3, STARTS))
     assert scattered.train_errors_over_starts[:3] == pytest.approx(per_start)
     assert len(scattered.train_errors_over_starts) == STARTS
@@ -737,7 +741,8 @@ def test_the_main_parameter_search_runs_to_its_tolerance(monkeypatch):
     # stopped after 4 steps left the fit there (here 0.033 of the prior's range from the
     # floor), run to its tolerance it ends within REFINE_TOL_UNIT of it.  A made-up
     # surface stands in for the simulations (the slip cause's prior and search as they are)
-    from skidsteer.diagnosis import fit as fit_module
+    from skidsteer.diagnosis import evaluate as evaluate_module
+    from skidsteer.diagnosis import search as search_module
 
     slip = causes.get("slip_lambda_max")
     floor_unit = 0.42  # between the grid's 0.3 and 0.5: no grid point lands in the valley
@@ -745,12 +750,12 @@ def test_the_main_parameter_search_runs_to_its_tolerance(monkeypatch):
     def surface(unit: float) -> float:
         return 4.5 if unit < floor_unit - 0.01 else 1.4 + 2.5 * abs(unit - floor_unit) ** 0.7
 
-    class Surface(fit_module._Evaluations):
+    class Surface(evaluate_module.Evaluations):
         def __init__(self, cause, comparison, groups, duration_s, train, *rest):
             self.cause, self.train, self.done = cause, train, {}
 
         def __call__(self, points):
-            keys = [(fit_module._parameter_key(p), int(r)) for p, r in points]
+            keys = [(evaluate_module.parameter_key(p), int(r)) for p, r in points]
             for (params, _), key in zip(points, keys):
                 unit = float(slip.main.to_unit(params[slip.main.name]))
                 self.done.setdefault(key, (surface(unit), None))
@@ -765,12 +770,12 @@ def test_the_main_parameter_search_runs_to_its_tolerance(monkeypatch):
         def factory(self, params, realisation):
             return None
 
-    monkeypatch.setattr(fit_module, "_Evaluations", Surface)
-    fitted = fit_module.fit_cause(slip, None, [], 1.0, np.arange(6), np.arange(0), None,
-                                  SensorChain(), None, None)
+    monkeypatch.setattr(search_module, "Evaluations", Surface)
+    fitted = search_module.fit_cause(slip, None, [], 1.0, np.arange(6), np.arange(0), None,
+                                     SensorChain(), None, None)
     unit = float(slip.main.to_unit(fitted.parameters[slip.main.name]))
-    assert abs(unit - floor_unit) <= fit_module.REFINE_TOL_UNIT
-    assert len(fitted.evaluations) > fit_module.GRID_POINTS + 4  # more than the old budget
+    assert abs(unit - floor_unit) <= search_module.REFINE_TOL_UNIT
+    assert len(fitted.evaluations) > search_module.GRID_POINTS + 4  # more than the old budget
 
 
 def test_the_error_over_starts_is_not_moved_by_one_start_in_another_regime():
@@ -1133,8 +1138,8 @@ def test_diagnose_writes_its_outputs(written):
     profile = [tuple(point) for point in named["profile"]]
     bound = interval_bound(starts, named["train_error"], n_train)
     low, high = saved["intervals"]["lambda_max"]
-    assert (low, high) == pytest.approx(_interval(profile, n_train, prior, bound))
-    single = _interval(profile, n_train, prior)
+    assert (low, high) == pytest.approx(interval(profile, n_train, prior, bound))
+    single = interval(profile, n_train, prior)
     assert low <= single[0] <= single[1] <= high
     # and it records a side open for want of a probe as the saved profile shows it
     assert named["unprobed"].get("lambda_max", []) == unprobed_sides(profile, prior, (low, high))
@@ -1150,7 +1155,8 @@ def test_the_progress_plan_is_the_count_run_but_for_brents_steps(written):
     # the search took (its saved profile: the grid's points and Brent's) the plan must
     # be the count the written diagnosis ran, exactly (nothing was reused).  The plan
     # once counted a pair here (7 simulations too many).
-    from skidsteer.diagnosis.fit import REFINE_STEPS_PLANNED, simulations_planned
+    from skidsteer.diagnosis.diagnose import simulations_planned
+    from skidsteer.diagnosis.search import REFINE_STEPS_PLANNED
     from skidsteer.reports.diagnosis import _observed as read_observed
     data, out, result = written
     saved = json.loads((out / "diagnosis.json").read_text())

@@ -10,7 +10,7 @@ import pytest
 from skidsteer.data.dataset import Group
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.comparison import Comparison, Observed, model_factory
-from skidsteer.diagnosis.fit import MIN_GAIN, Z_CONSISTENT, training_lead, unconfirmed_lead
+from skidsteer.diagnosis.verdict import MIN_GAIN, Z_CONSISTENT, training_lead, unconfirmed_lead
 from skidsteer.diagnosis.next_command import (BASE_MODEL, CONFIRM, SEPARATE, candidate_commands,
                                               confirmation_note, proposal_note, separation,
                                               separating_commands, undecided_pair)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from skidsteer.reports.reproduction import VIBRATION_FLOOR_M_S2, sec_3_2_features
+from skidsteer.diagnosis.thesis_features import VIBRATION_FLOOR_M_S2, sec_3_2_features
 
 
 def _run(omega, floor, low_hz, high_hz, dominant, rms, amp, build="extended"):

@@ -13,10 +13,10 @@ import warnings
 import pytest
 
 from skidsteer import experiments
-from skidsteer.reports.reproduction import DECAY_TARGET_FACTOR as DECAY_FACTOR_TARGET
-from skidsteer.reports.reproduction import FREQUENCY_TARGET, SPIN_STEADY_N, TABLE_5_2
+from skidsteer.diagnosis.thesis_features import _wheel_components_linear
+from skidsteer.diagnosis.thesis_targets import DECAY_TARGET_FACTOR as DECAY_FACTOR_TARGET
+from skidsteer.diagnosis.thesis_targets import FREQUENCY_TARGET, SPIN_STEADY_N, TABLE_5_2
 from skidsteer.reports.reproduction import MISS_EXPLANATIONS as CAUSES
-from skidsteer.reports.reproduction import _wheel_components_linear
 from skidsteer.robot import Setup
 
 # A strict xfail here is an issue-3 target our model misses for the cause in its

@@ -9,6 +9,7 @@ import re
 import pytest
 
 from skidsteer.features import signals
+from skidsteer.diagnosis import thesis_features, thesis_targets
 from skidsteer.reports import reproduction, thesis_measurements
 from skidsteer.reports.thesis_measurements import MeasurementsError, load
 
@@ -22,7 +23,7 @@ def measured():
 
 def test_every_feature_has_a_source_a_rule_and_a_decider(measured):
     deciders = {f.decider for f in measured.features}
-    assert deciders == set(reproduction.DECIDERS), "deciders without a feature, or the reverse"
+    assert deciders == set(thesis_features.DECIDERS), "deciders without a feature, or the reverse"
     for f in measured.features:
         assert re.search(r"Sec\. \d", f.source), (f.key, f.source)
         for name in f.thresholds:
@@ -36,15 +37,15 @@ def test_the_22_features_of_the_reproduction_report_are_the_files(measured):
     # the count the README and the mission quote: 22 decided Sec. 3.2 features
     assert len(measured.feature_keys()) == 22
     lift = [{"variant": "ours", "omega_deg_s": w, "wheel_lift_fraction": 0.0}
-            for w in reproduction.LIFT_OMEGAS]
+            for w in thesis_features.LIFT_OMEGAS]
     wheel = {"runs": [dict(_run(w, s, 5.0, 25.0, "high", 0.5, 0.5), mount="wheel")
                       for s in ("concrete", "carpet") for w in range(2, 20, 2)]}
     runs = _thesis_like(rms=0.5)["runs"]
     runs += [dict(r, floor=s) for r in runs for s in ("tile", "carpet")]
     runs += [dict(r, build="platform") for r in runs if r["floor"] != "tile"]
-    rows = (reproduction.sec_3_2_features({"runs": runs}) +
-            [reproduction.lift_feature(lift, "ours")] +
-            reproduction.wheel_mount_features(wheel))
+    rows = (thesis_features.sec_3_2_features({"runs": runs}) +
+            [thesis_features.lift_feature(lift, "ours")] +
+            thesis_features.wheel_mount_features(wheel))
     assert sorted(r["feature"] for r in rows) == sorted(measured.feature_keys())
     for r in rows:
         entry, floor = measured.feature(r["feature"])
@@ -52,10 +53,10 @@ def test_the_22_features_of_the_reproduction_report_are_the_files(measured):
 
 
 def test_the_reports_constants_are_the_files(measured):
-    assert reproduction.TABLE_5_2["roll"]["peak_hz"] == measured.free_response["roll"]["peak_hz"]
-    assert reproduction.SPIN_STEADY_N == tuple(measured.pull["spinning_steady_N"]["range"])
-    assert reproduction.VIBRATION_FLOOR_M_S2 == measured.threshold("vibration_floor_m_s2")
-    assert reproduction.LIFT_OMEGAS == tuple(measured.threshold("lift_omegas_deg_s"))
+    assert thesis_targets.TABLE_5_2["roll"]["peak_hz"] == measured.free_response["roll"]["peak_hz"]
+    assert thesis_targets.SPIN_STEADY_N == tuple(measured.pull["spinning_steady_N"]["range"])
+    assert thesis_features.VIBRATION_FLOOR_M_S2 == measured.threshold("vibration_floor_m_s2")
+    assert thesis_features.LIFT_OMEGAS == tuple(measured.threshold("lift_omegas_deg_s"))
     # the analysis computes its band features with its own band edges: the same numbers
     assert signals.LOW_BAND_HZ[1] == measured.threshold("low_hz")
     assert signals.HIGH_BAND_HZ[0] == measured.threshold("high_hz")
@@ -67,7 +68,7 @@ def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
     analysis = _thesis_like(rms=0.5)
     key = "low_and_high_below_30_concrete"
     before = {r["feature"]: r["reproduced"] for r in
-              reproduction.sec_3_2_features(analysis, ("concrete",))}
+              thesis_features.sec_3_2_features(analysis, ("concrete",))}
     analysis["runs"][0]["top_peaks_hz"]["y"] = [8.0, 6.0, 15.0]  # one run not low+high
     text = thesis_measurements.default_path().read_text()
     strict = text.replace('[thresholds.usually_fraction]\nvalue = 0.5',
@@ -75,9 +76,9 @@ def test_a_threshold_moved_in_the_file_moves_the_verdict(tmp_path, monkeypatch):
     assert strict != text
     path = tmp_path / "strict.toml"
     path.write_text(strict)
-    monkeypatch.setattr(reproduction, "MEASURED", load(path))
+    monkeypatch.setattr(thesis_features, "MEASURED", load(path))
     after = {r["feature"]: r["reproduced"] for r in
-             reproduction.sec_3_2_features(analysis, ("concrete",))}
+             thesis_features.sec_3_2_features(analysis, ("concrete",))}
     assert before[key] is True and after[key] is False
 
 

@@ -22,7 +22,8 @@ from skidsteer.data.dataset import run_file_name
 from skidsteer.data.files import write_atomically
 from skidsteer.data.imu import is_imu_folder
 from skidsteer.data.recording import DataError, write_run
-from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS
+from skidsteer.diagnosis.evaluate import SEARCH_STARTS, STARTS
+from skidsteer.diagnosis.intervals import unprobed_note
 from skidsteer.experiments.free_response import FREE_RESPONSE_AXES, free_response
 from skidsteer.experiments.pull import pull
 from skidsteer.experiments.rest import tire_loads
@@ -30,7 +31,7 @@ from skidsteer.experiments.straight import straight
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
 from skidsteer.experiments.swivel import run_swivel, swivel_summary
 from skidsteer.reports.analysis import analyze_paths
-from skidsteer.reports.diagnosis import compare, diagnose, unprobed_note
+from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.reports.real_data import diagnose_recordings
 from skidsteer.reports.reproduction import reproduce
 from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
@@ -308,7 +309,7 @@ def _print_verdict(result: dict, *more: str) -> None:
         print(line)
     for name, value in result["parameters"].items():
         interval = result["intervals"].get(name)
-        # a side open for want of a probe (fit.unprobed_sides) says so, as in the report
+        # a side open for want of a probe (intervals.unprobed_sides) says so, as in the report
         note = unprobed_note(result.get("unprobed", {}).get(name))
         extra = f" (interval {interval[0]:.3g} to {interval[1]:.3g}{note})" if interval else ""
         print(f"  {name} = {value:.4g}{extra}")

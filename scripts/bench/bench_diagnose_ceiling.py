@@ -35,31 +35,27 @@ import sys
 import time
 from collections import Counter
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import skidsteer  # noqa: E402,F401
-from _machine import machine  # noqa: E402
-from bench_diagnose_generalisation import (FIXED, _outcome, case_of, fraction,  # noqa: E402
-                                           generate, newest_rows)
-from skidsteer.data.dataset import read_dataset  # noqa: E402
-from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
-from skidsteer.diagnosis.causes import ground_roughness  # noqa: E402
-from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,  # noqa: E402
+import skidsteer  # noqa: F401  (registers the plugin)
+from _machine import machine  # scripts/bench/, beside this file
+from bench_diagnose_generalisation import case_of, generate
+from skidsteer.data.dataset import read_dataset
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.benchmark_rows import (counts, drawn_from_indices, fraction, judged,
+                                                newest_rows, paid_parameters, row_outcome)
+from skidsteer.diagnosis.causes import ground_roughness
+from skidsteer.diagnosis.comparison import (Comparison, Observed, group_wheel_rates,
                                             model_factory, simulate_groups)
-from skidsteer.diagnosis.fit import (MIN_GAIN, _score, base_group_errors, gain,  # noqa: E402
-                                     median_error, n_parameters, over_starts,
-                                     preferred_in_training, rivals, separated,
-                                     split, told_from_base)
-from skidsteer.diagnosis.synth import truth_edit  # noqa: E402
-from skidsteer.reports.markdown import table  # noqa: E402
-from skidsteer.simulation.backends import LocalBackend  # noqa: E402
-from skidsteer.simulation.cache import SimulationCache, code_fingerprint  # noqa: E402
-from skidsteer.simulation.sensor_chain import SensorChain  # noqa: E402
+from skidsteer.diagnosis.evaluate import base_group_errors, median_error, over_starts
+from skidsteer.diagnosis.split import split
+from skidsteer.diagnosis.synth import truth_edit
+from skidsteer.diagnosis.verdict import Z_CONSISTENT, n_parameters, penalised_score
+from skidsteer.reports.markdown import table
+from skidsteer.simulation.backends import LocalBackend
+from skidsteer.simulation.cache import SimulationCache, code_fingerprint
+from skidsteer.simulation.sensor_chain import SensorChain
 
 
 def _dataset(case: dict, out: Path, trials: int, duration_s: float, threads: int) -> Path:
@@ -69,64 +65,6 @@ def _dataset(case: dict, out: Path, trials: int, duration_s: float, threads: int
     if not (data / "runs.csv").exists():
         generate(case, out, trials, duration_s, threads)
     return data
-
-
-def _why_not(fits: list, row: dict, removed: float) -> str:
-    """The rule that stops the truth, checked in verdict's order with its own rules."""
-    best = fits[0]
-    if row["base_held"] <= Z_CONSISTENT:
-        return "held-out quiet"
-    if best.cause != row["effect"]:
-        return f"{best.cause} scores better"
-    if removed < MIN_GAIN:
-        return "gain"
-    if best.score >= row["base_held"] ** 2:
-        return "score"
-    if not told_from_base(row["base_train"], best, row["n_train"]):
-        return "training"
-    contending = rivals(fits[1:], row["base_train"], row["n_train"])
-    if contending and not separated(row["base_held"], best, contending):
-        return "not separated"
-    rival = preferred_in_training(best, fits[1:], row["n_train"])
-    if rival is not None:
-        return f"training prefers {rival.cause}"
-    return "other"
-
-
-def _fitted(effect: str, own: dict | None) -> list[str]:
-    """The parameters the truth pays for: those the hidden cause's own fit fitted (its
-    ranking entry `own`), or every parameter of the cause when the row has none."""
-    if own is not None:
-        return list(own["fitted"])
-    cause = causes.get(effect)
-    return [p.name for p in (cause.main, *cause.held)]
-
-
-def judged(row: dict, diagnosed: dict) -> dict:
-    """The verdict the truth gets by the verdict rules as they are now, from what the row
-    keeps (the base model's errors, the truth's, the trial noise) and the other causes'
-    fits of the generalisation row `diagnosed`: a rule changed later is judged on every
-    row without simulating again."""
-    own = next((f for f in diagnosed.get("ranking", []) if f["cause"] == row["effect"]), None)
-    # the training rules compare training errors, and a fit's is the lowest of its search
-    # while the truth's is one simulation: the truth gets the lower of its own and its
-    # cause's fit's (a fit that found the truth's basin would reach at least as low), so
-    # the ceiling stays an upper bound (draws 1045 and 1108 were named right by diagnose
-    # and, with the truth's own training error, would not be by the training-rank rule)
-    train = min(row["truth_train"], own["train_error"]) if own else row["truth_train"]
-    truth = SimpleNamespace(cause=row["effect"], held_out_error=row["truth_held"],
-                            train_error=train, score=row["truth_score"],
-                            fitted=_fitted(row["effect"], own))
-    others = [SimpleNamespace(**f) for f in diagnosed.get("ranking", [])
-              if f["cause"] != row["effect"]]
-    fits = sorted([truth, *others], key=lambda f: f.score)
-    result, named, reason = verdict(row["base_error"], row["base_held"], fits, row["noise"],
-                                    base_train=row["base_train"], n_train=row["n_train"])
-    is_named = named is not None and named.cause == row["effect"]
-    removed = gain(row["base_held"], row["truth_held"], row["noise"])
-    return {"verdict": result, "named": is_named, "removed": removed, "reason": reason,
-            "stopped_by": None if is_named else _why_not(fits, row, removed),
-            "diagnose": _outcome(diagnosed)}
 
 
 class Measured:
@@ -181,7 +119,7 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
     held_errors = [comparison.error(s.features, held, train) for s in truth_starts]
     truth_held = float(np.median(held_errors))
     own = next((f for f in row.get("ranking", []) if f["cause"] == case["effect"]), None)
-    n_params = n_parameters(case["effect"], len(_fitted(case["effect"], own)))
+    n_params = n_parameters(case["effect"], len(paid_parameters(case["effect"], own)))
     return {"case": case["case"], "effect": case["effect"], "floor": case["floor"],
             "omegas": list(case["omegas"]), "truth": values,
             "base_error": median_error(comparison, base_starts, all_runs),
@@ -190,21 +128,10 @@ def ceiling_case(case: dict, row: dict, out: Path, trials: int, duration_s: floa
             "noise": comparison.noise_error(),
             "truth_held": truth_held, "truth_held_starts": held_errors,
             "truth_train": comparison.error(truth_first.features, train),
-            "truth_score": _score(truth_held, n_params, len(train)),
+            "truth_score": penalised_score(truth_held, n_params, len(train)),
             "fit_held": own["held_out_error"] if own else None,
             "seconds": round(time.perf_counter() - started, 1),
             "code": code_fingerprint()[:12]}
-
-
-def counts(rows: list[dict], verdicts: list[dict]) -> dict[str, tuple[int, int]]:
-    """(k, n) of a summary: the truth named ("named"), the same where the held-out command
-    shows a discrepancy ("judged"), and diagnose right where the truth is named
-    ("diagnose")."""
-    named = [v for v in verdicts if v["named"]]
-    judged = [v for r, v in zip(rows, verdicts) if r["base_held"] > Z_CONSISTENT]
-    return {"named": (len(named), len(rows)),
-            "judged": (sum(v["named"] for v in judged), len(judged)),
-            "diagnose": (sum(v["diagnose"] == "right" for v in named), len(named))}
 
 
 def summary(rows: list[dict], verdicts: list[dict]) -> str:
@@ -218,13 +145,6 @@ def summary(rows: list[dict], verdicts: list[dict]) -> str:
             f"{fraction(*rates['diagnose'])} of the datasets where the truth would "
             "be named.  Where the truth is not named, the rule that stops it: "
             + (", ".join(f"{k} {n}" for k, n in sorted(stops.items())) or "none") + ".")
-
-
-def drawn_from_indices(rows: list[dict], diagnosed: dict[str, dict],
-                       draws_from: int | None) -> list[int]:
-    """The indices of the rows of drawn cases from seed draws_from on (none without one)."""
-    return [i for i, r in enumerate(rows) if draws_from is not None
-            and r["case"] not in FIXED and diagnosed[r["case"]]["seed"] >= draws_from]
 
 
 def report(rows: list[dict], diagnosed: dict[str, dict], draws_from: int | None = None) -> str:
@@ -290,11 +210,11 @@ def main(argv=None) -> int:
     if not args.report:
         done = set(newest_rows(args.ceiling))
         todo = [case_of(row) for name, row in newest.items()
-                if row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
+                if row["effect"] in causes.CAUSES and row_outcome(row) != "inside noise"
                 and (name not in done or name in args.rerun)
                 and (not args.only or name in args.only)]
         # the misses first (what the ceiling is to explain), then the newest rows
-        todo.sort(key=lambda c: (_outcome(newest[c["case"]]) != "missed", -c["seed"]))
+        todo.sort(key=lambda c: (row_outcome(newest[c["case"]]) != "missed", -c["seed"]))
         for i, case in enumerate(todo):
             # the row's rough floor, as its data and fits had it (rows without the
             # field: the plugin's default)

@@ -48,40 +48,30 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from collections import Counter
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 from scipy import stats
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-import skidsteer  # noqa: E402,F401
-from _machine import machine  # noqa: E402
-from skidsteer.diagnosis import Z_CONSISTENT, causes, verdict  # noqa: E402
-from skidsteer.diagnosis.causes import ground_roughness  # noqa: E402
-from skidsteer.diagnosis.fit import SEARCH_STARTS, STARTS  # noqa: E402
-from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset  # noqa: E402
-from skidsteer.reports.diagnosis import diagnose  # noqa: E402
-from skidsteer.reports.markdown import table  # noqa: E402
-from skidsteer.robot import Setup, tire  # noqa: E402
-from skidsteer.simulation.cache import code_fingerprint  # noqa: E402
+import skidsteer  # noqa: F401  (registers the plugin)
+from _machine import machine  # scripts/bench/, beside this file
+from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.benchmark_rows import (FIXED, all_rows, clear_causes, drawn_from,
+                                                fraction, groups, held_out_quiet, newest_rows,
+                                                outcome, right_of, row_outcome, row_verdict)
+from skidsteer.diagnosis.causes import ground_roughness
+from skidsteer.diagnosis.evaluate import SEARCH_STARTS, STARTS
+from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset
+from skidsteer.diagnosis.verdict import Z_CONSISTENT
+from skidsteer.reports.diagnosis import diagnose
+from skidsteer.reports.markdown import table
+from skidsteer.robot import Setup, tire
+from skidsteer.simulation.cache import code_fingerprint
 
 FLOORS = ("concrete", "tile", "carpet")  # the plugin's floors (Sec. 3.3 and assumed)
 OMEGAS_DEG_S = np.arange(10.0, 65.0, 5.0)  # Sec. 3.2's swivels span 4-64 deg/s
-FIXED = {
-    "roughness_on_tile": dict(effect="ground_roughness", seed=2101, floor="tile",
-                              omegas=(15.0, 35.0, 55.0),
-                              params={"height_rms_m": 3.5e-4, "correlation_length_m": 0.05}),
-    "anisotropic_frame_on_carpet": dict(
-        effect="mast_compliance", seed=2102, floor="carpet", omegas=(15.0, 30.0, 60.0),
-        params={"stiffness_n_m_per_rad": 400.0, "pitch_stiffness_ratio": 0.5,
-                "damping_ratio": 0.03}),
-}
-NAMING = ("explained", "partly-explained")  # verdicts that name a cause
 
 
 def plan(n_datasets: int, first_seed: int) -> list[dict]:
@@ -98,48 +88,6 @@ def plan(n_datasets: int, first_seed: int) -> list[dict]:
                                                                            replace=False))),
                       "params": None})
     return cases
-
-
-def outcome(effect: str | None, said: str, cause: str | None, baseline_error: float) -> str:
-    """right / wrong / missed / inside noise (the module docstring says when); said: the
-    verdict."""
-    named = cause if said in NAMING else None
-    if effect is None:
-        return "right" if said == "no-discrepancy" else "wrong"
-    if baseline_error <= Z_CONSISTENT:
-        return "inside noise"
-    if effect in OUTSIDE_EFFECTS:
-        return "right" if said == "unexplained" else "wrong"
-    if named is None:
-        return "missed"
-    return "right" if named == effect else "wrong"
-
-
-def _verdict(row: dict) -> tuple[str, str | None]:
-    """(verdict, named cause) under the verdict rules as they are now: a row keeps what
-    they read (the base model's errors, the trial noise, every fit's errors and score),
-    so a rule changed later is judged on every row without simulating again.  Rows
-    written before they kept it (no "ranking", or no "base_train") give the verdict they
-    had (the committed rows have the base model's training error: rows written before it
-    was kept got it afterwards from their datasets, scripts/bench/backfill_base_train.py)."""
-    if "ranking" not in row or "base_train" not in row:
-        return row["verdict"], row["cause"]
-    fits = [SimpleNamespace(**f) for f in row["ranking"]]
-    result, named, _ = verdict(row["baseline_error"], row["held_out"][0], fits, row["noise"],
-                               base_train=row["base_train"], n_train=row["n_train"])
-    return result, named.cause if named is not None else None
-
-
-def wrong_name(row: dict) -> bool:
-    """Whether the row names a cause (under the rules as they are now) that is not its
-    hidden one: a "wrong" outcome that names nothing (a null said unexplained) is not a
-    wrong name; the nulls' rate counts it."""
-    return _outcome(row) == "wrong" and _verdict(row)[1] is not None
-
-
-def _outcome(row: dict) -> str:
-    """A row's outcome under the rules as they are now (rows keep the one they had)."""
-    return outcome(row["effect"], *_verdict(row), row["baseline_error"])
 
 
 def generate(case: dict, out: Path, trials: int, duration_s: float, threads: int,
@@ -213,17 +161,16 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "model_spread": model_spread,
             # the rough floor's contact normal (None: the plugin's default, vertical)
             "rough_floor_normal": rough_floor_normal,
-            # the swivels proposed to tell two undecided fits apart (diagnosis.next_command;
-            # from stop 57 on: scripts/bench/extra_command.py records the one proposed first),
-            # or, from stop 61 on, to confirm the training runs' lead when the held-out runs
-            # are quiet (next_command_purpose says which)
+            # the swivels proposed to tell two undecided fits apart (diagnosis.next_command),
+            # or to confirm the training runs' lead when the held-out runs are quiet
+            # (next_command_purpose says which); older rows have none
             "next_commands": result["next_commands"],
             "next_command_purpose": result.get("next_command_purpose")}
 
 
 def _recovery(row: dict) -> str:
     """The named cause's main parameter, fitted over hidden, where the name is right."""
-    if _outcome(row) != "right" or row["effect"] not in causes.CAUSES:
+    if row_outcome(row) != "right" or row["effect"] not in causes.CAUSES:
         return "-"
     main = causes.get(row["effect"]).main.name
     # the named fit's, from the ranking: a row named only under a rule added after it was
@@ -239,54 +186,20 @@ def _versions(rows: list[dict]) -> list[tuple[str, int]]:
     return list(Counter(r.get("code", "not recorded") for r in rows).items())
 
 
-def _held_out_quiet(row: dict) -> bool:
-    """A cause's dataset whose held-out command shows no discrepancy of its own."""
-    return (row["effect"] in causes.CAUSES and _outcome(row) != "inside noise"
-            and row["held_out"][0] <= Z_CONSISTENT)
-
-
 def _verdict_shown(row: dict) -> str:
     """The verdict now, and the one the row was written with where they differ."""
-    now = _verdict(row)[0]
+    now = row_verdict(row)[0]
     return now if now == row["verdict"] else f"{now} (was {row['verdict']})"
-
-
-def fraction(k: int, n: int) -> str:
-    """'k of n (p%)', as every summary of both benchmarks says it."""
-    return f"{k} of {n}" + (f" ({k / n:.0%})" if n else "")
-
-
-def right_of(rows: list[dict]) -> tuple[int, int]:
-    """(rows whose outcome is right, rows)."""
-    return sum(_outcome(r) == "right" for r in rows), len(rows)
 
 
 def _rate(rows: list[dict]) -> str:
     return fraction(*right_of(rows))
 
 
-def _clear(rows: list[dict], code: str | None = None) -> list[dict]:
-    """The causes' datasets whose effect is clear of the trials' noise (of one code
-    version, when given)."""
-    return [r for r in rows if r["effect"] in causes.CAUSES and _outcome(r) != "inside noise"
-            and code in (None, r.get("code", "not recorded"))]
-
-
-def groups(rows: list[dict]) -> dict[str, list[dict]]:
-    """The rows a summary rates: the causes clear of the noise ("effects"), those of them
-    whose held-out command shows a discrepancy ("judged"), the nulls and the outside
-    effects clear of the noise."""
-    effects = _clear(rows)
-    return {"effects": effects, "judged": [r for r in effects if not _held_out_quiet(r)],
-            "nulls": [r for r in rows if r["effect"] is None],
-            "outside": [r for r in rows if r["effect"] in OUTSIDE_EFFECTS
-                        and _outcome(r) != "inside noise"]}
-
-
 def summary(rows: list[dict]) -> str:
     """The outcomes of rows in one sentence: counts, the clear causes' rate of right names
     (with and without the held-out-quiet ones), the nulls and the outside effects."""
-    counts = {k: sum(_outcome(r) == k for r in rows)
+    counts = {k: sum(row_outcome(r) == k for r in rows)
               for k in ("right", "wrong", "missed", "inside noise")}
     rated = groups(rows)
     return (f"{len(rows)} datasets: {counts['right']} right, {counts['wrong']} wrong, "
@@ -296,12 +209,6 @@ def summary(rows: list[dict]) -> str:
             f"{Z_CONSISTENT:g}), {_rate(rated['judged'])}; nulls no-discrepancy in "
             f"{_rate(rated['nulls'])}; outside effects clear of the noise unexplained in "
             f"{_rate(rated['outside'])}.")
-
-
-def drawn_from(rows: list[dict], draws_from: int | None) -> list[dict]:
-    """The drawn rows (not the fixed cases) from seed draws_from on (none without one)."""
-    return [r for r in rows if draws_from is not None and r["case"] not in FIXED
-            and r["seed"] >= draws_from]
 
 
 def recovery(rows: list[dict]) -> list[dict]:
@@ -371,10 +278,10 @@ def report(rows: list[dict], draws_from: int | None = None) -> str:
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
                    [[r["case"], r["effect"] or "(none)", r["floor"],
                      "/".join(f"{w:g}" for w in r["omegas"]), _verdict_shown(r),
-                     _verdict(r)[1] or "-",
+                     row_verdict(r)[1] or "-",
                      f"{r['removed']:.0%}",
                      f"{r['held_out'][0]:.2f} -> {r['held_out'][1]:.2f}", _recovery(r),
-                     _outcome(r) + (" (held-out quiet)" if _held_out_quiet(r) else ""),
+                     row_outcome(r) + (" (held-out quiet)" if held_out_quiet(r) else ""),
                      f"{r['diagnose_s']:.0f}"] for r in rows]).rstrip(), "",
              summary(rows)]
     if later:
@@ -392,22 +299,10 @@ def report(rows: list[dict], draws_from: int | None = None) -> str:
               "", recovery_table(rows), ""]
     lines += [
              "Code (simulation cache fingerprint: skidsteer's sources, plugin, MuJoCo): "
-             + "; ".join(f"{code} for {n} ({_rate(_clear(rows, code))} clear causes named "
+             + "; ".join(f"{code} for {n} ({_rate(clear_causes(rows, code))} clear causes named "
                          "right)" for code, n in _versions(rows)) + ".",
              f"Machine: {machine()}."]
     return "\n".join(lines)
-
-
-def _rows(results: Path) -> list[dict]:
-    """Every row of the results file, in the order they were run."""
-    return ([json.loads(line) for line in results.read_text().splitlines()]
-            if results.exists() else [])
-
-
-def newest_rows(results: Path) -> dict[str, dict]:
-    """A case's newest row, by case, in the order of each case's first row (a rerun
-    appends; the tables show the newest)."""
-    return {r["case"]: r for r in _rows(results)}
 
 
 def main(argv=None) -> int:
@@ -479,7 +374,7 @@ def main(argv=None) -> int:
     fixed = list(FIXED)
     text = report(sorted(done.values(), key=lambda r: (0, fixed.index(r["case"]))
                          if r["case"] in FIXED else (1, r["seed"])), args.draws_from)
-    superseded = len(_rows(results)) - len(done)
+    superseded = len(all_rows(results)) - len(done)
     if superseded:
         text += (f"\n{superseded} earlier row(s) of rerun cases are in the results file and "
                  "not in the table.")

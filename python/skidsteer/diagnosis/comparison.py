@@ -37,14 +37,9 @@ LOG_POWER_RESOLUTION = 0.1
 CENTRIPETAL_RESOLUTION_M_S2 = 0.004
 SIGNIFICANT_Z = 3.0  # a group's feature disagrees when its trial-mean z exceeds this
 # The degrees of freedom the trials' spread needs (Observed.spread_dof: each command's
-# trials beyond its first, pooled) before a z-score against it is judged.  A z-score
-# against a spread estimated on nu degrees of freedom is Student's t, whose variance
-# nu / (nu - 2) is infinite for nu <= 2: the RMS z-score of a model as right as one more
-# trial then has no scale, and Z_CONSISTENT none either.  Measured (issue 21, stop 44,
-# before the rule; the model itself simulated the data, runs of 8-10 s): 1 degree of
-# freedom (1 command x 2 trials, two draws) scored 2.01 and 2.20, 2 (1 x 3; 2 x 2 on
-# tile) 2.60 and 6.06, all above Z_CONSISTENT; 3 (3 x 2 on carpet) 1.41, 4 (2 x 3) 1.93.
-# The threshold is the theory's (finite variance), not fitted to these.
+# trials beyond its first, pooled) before a z-score against it is judged: against a
+# spread on nu degrees of freedom it is Student's t, whose variance nu / (nu - 2) is
+# infinite for nu <= 2 (the theory's limit, not fitted; measured: docs/diagnose.md)
 MIN_SPREAD_DOF = 3
 START_SEED = 7  # the simulated starts' draws (start_state), apart from synth's trials (1)
 
@@ -224,9 +219,8 @@ def start_state(m: mujoco.MjModel, start: int, settle_s: float = 2.0) -> np.ndar
 
     The deflections matter: on a flat floor with round wheels the yaw and wheel angle
     change nothing physical, so starts without them are copies of one simulation up to
-    roundoff (issue 21's draw-1175: a 2e-9 change of lambda_max moved all five held-out
-    starts from one regime to another together); with them the starts are independent
-    draws of the model's run-to-run scatter, as the trials they are compared with are."""
+    roundoff; with them the starts are independent draws of the model's run-to-run
+    scatter, as the trials they are compared with are."""
     if start == 0:
         return settle(m, mujoco.MjData(m), settle_s)
     turned = trial_start(m, np.random.default_rng([START_SEED, int(start)]), settle_s)
@@ -345,8 +339,7 @@ class Comparison:
         standard deviation (ddof 1) over `starts` (one model's simulations of every
         command, each from another start) as the measurement would show them
         (simulated_log).  Not pooled over the commands, as the trials' spread is: a
-        regime split is a property of one command (issue 21's draw 1211: the 30 deg/s
-        swivel on carpet split, 55 and 60 did not)."""
+        regime split is a property of one command."""
         logs = np.stack([self.simulated_log(s.features) for s in starts])  # start, group, f
         with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a feature unscored: NaN
@@ -356,10 +349,9 @@ class Comparison:
         """This comparison with the model's start-to-start spread at each command
         (start_spread of `starts`) added to every feature's scale in quadrature: a
         discrepancy is then measured against what the trials and the model's own scatter
-        together leave open.  Issue 18's step: at 0.1 ms the base model's steady band
-        powers split into two regimes across starts on 4 of the 8 swivels that vibrate,
-        and a null dataset whose three trials fell in one regime, the model's median in
-        the other, scored 2.00, above Z_CONSISTENT (draw 1211; 1.57 with this)."""
+        together leave open.  At the default step the base model's steady band powers can
+        split into two regimes across starts, and a null dataset whose trials fell in one
+        regime, the model's median in the other, would read as a discrepancy."""
         if len(starts) < 2:
             raise ValueError(f"the model's start-to-start spread needs 2 starts or more, "
                              f"not {len(starts)}")

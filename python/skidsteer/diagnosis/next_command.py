@@ -22,8 +22,7 @@ This is a prediction of the two fitted models, not of the robot: the robot may b
 neither, and a random geometry's fit carries one realisation of it (its scatter
 across realisations is not in the start-to-start scatter).  Whether recording the
 proposed command resolves a diagnosis is measured on the generalisation benchmark's
-undecided draws (scripts/bench/extra_command.py; docs/diagnose.md, "The next command
-to record").
+undecided draws (docs/diagnose.md, "The next command to record").
 """
 
 from __future__ import annotations
@@ -35,6 +34,7 @@ import numpy as np
 
 from skidsteer.data.dataset import Group
 from skidsteer.diagnosis.comparison import Comparison, simulate_groups
+from skidsteer.diagnosis.verdict import Z_CONSISTENT
 from skidsteer.features.extract import comparison_feature_names
 
 # the swivel rates a proposal is chosen from, deg/s: the range of the generalisation
@@ -54,7 +54,7 @@ RECORDED_WITHIN_DEG_S = 5.0
 PROPOSAL_STARTS = 3
 # what a diagnosis's proposals are for (Diagnosis.next_command_purpose)
 SEPARATE = "separate"  # two undecided fits (undecided_pair)
-CONFIRM = "confirm"  # the training runs' lead against the base model (fit.unconfirmed_lead)
+CONFIRM = "confirm"  # the training runs' lead against the base model (verdict.unconfirmed_lead)
 BASE_MODEL = "base model"  # how a CONFIRM proposal's "predicted" names the base model
 
 
@@ -111,7 +111,7 @@ def separating_commands(first, second, comparison: Comparison, groups: list[Grou
                         rates_deg_s=CANDIDATE_RATES_DEG_S,
                         starts: int = PROPOSAL_STARTS) -> list[dict]:
     """The candidate commands (candidate_commands of the recorded `groups`) ranked by how
-    far apart the two fits (diagnosis.fit.Fit, with their model factories) predict them
+    far apart the two fits (search.Fit, with their model factories) predict them
     (separation), best first: each with its label, command, separation, and the feature
     that differs most with both fits' values there ("predicted": the median over starts, as
     measured: log10 power, or m/s^2 for the centripetal mean).  Empty when
@@ -155,6 +155,12 @@ def undecided_pair(fits: list, named, base_held: float, limit: float, min_gain: 
     return first, second
 
 
+def worth_recording(proposal: dict, limit: float = Z_CONSISTENT) -> bool:
+    """Whether a proposed command's separation reaches `limit` (the diagnosis's
+    Z_CONSISTENT): the held-out runs of that command, once recorded, could show it."""
+    return proposal["separation"] >= limit
+
+
 def _note(proposals: list[dict], causes: tuple[str, str], limit: float, *, goal: str,
           predicts: str, fits: str, shows: str, apart: str) -> str:
     """What proposal_note and confirmation_note share: the first proposal, to record and
@@ -164,7 +170,7 @@ def _note(proposals: list[dict], causes: tuple[str, str], limit: float, *, goal:
     if not proposals:
         return ""
     top = proposals[0]
-    if top["separation"] >= limit:
+    if worth_recording(top, limit):
         a, b = (top["predicted"][c] for c in causes)
         return (f"; {goal}, record a swivel at {top['omega_deg_s']:g} deg/s "
                 f"({top['command']}): {predicts.format(separation=top['separation'])} "
@@ -180,8 +186,8 @@ def proposal_note(proposals: list[dict], first, second, limit: float) -> str:
     """The clause a verdict's reason gains from separating_commands' proposals ('' when
     there is no candidate): the command to record, and to hold out once recorded (the fits
     trained on the commands recorded now then predict it, which is what separates them:
-    held out by split()'s rule instead, the tied commands decide again; issue 21's draw
-    1178, docs/diagnose.md), or that none in the range would do."""
+    held out by split()'s rule instead, the tied commands decide again; docs/diagnose.md),
+    or that none in the range would do."""
     return _note(proposals, (first.cause, second.cause), limit,
                  goal=f"to tell {first.cause} from {second.cause}",
                  predicts="their fits predict it {separation:.1f} RMS z apart", fits="fits",

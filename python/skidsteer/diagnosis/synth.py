@@ -59,6 +59,21 @@ OUTSIDE_EFFECTS: dict[str, tuple[Callable, dict[str, float]]] = {
     "unbalanced_fan": (unbalanced_fan, {"frequency_hz": FAN_FREQUENCY_HZ,
                                         "imbalance_kg_m": FAN_IMBALANCE_KG_M}),
 }
+
+# data/sample's recipe (scripts/make_sample_dataset.py writes it; bench_diagnose.py times
+# diagnose on it with longer records): the extended robot swivelling on concrete at 15, 30
+# and 60 deg/s, three trials of 10 s each, with a frame of 250 N m/rad hidden in it
+SAMPLE_RECIPE = {
+    "effect": "mast_compliance",
+    "params": {"stiffness_n_m_per_rad": 250.0},
+    "seed": 2012,
+    "omegas": (15.0, 30.0, 60.0),
+    "trials": 3,
+    "duration_s": 10.0,
+    "build": "extended",
+    "floor": "concrete",
+    "file_format": "csv",
+}
 EFFECTS = (None, *causes.CAUSES, *OUTSIDE_EFFECTS)
 
 

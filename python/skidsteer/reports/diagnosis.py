@@ -23,15 +23,19 @@ from tqdm import tqdm
 from skidsteer.data.dataset import read_dataset
 from skidsteer.data.files import begin_outputs, finish_outputs, write_json, write_text
 from skidsteer.diagnosis import causes as cause_registry
-from skidsteer.diagnosis.comparison import (Comparison, Observed, Simulated, group_wheel_rates,
-                                            model_factory, require_spread, simulate_groups)
-from skidsteer.diagnosis.fit import (SEARCH_STARTS, STARTS, Z_CONSISTENT, diagnose_observed,
-                                     held_out_groups, holds_out_commands, median_error,
-                                     over_starts, simulations_planned)
-from skidsteer.diagnosis.next_command import CONFIRM, PROPOSAL_STARTS
+from skidsteer.diagnosis.command_table import group_table, significant
+from skidsteer.diagnosis.comparison import (SIGNIFICANT_Z, Comparison, Observed, Simulated,
+                                            group_wheel_rates, model_factory, require_spread)
+from skidsteer.diagnosis.diagnose import (base_error_over_starts, base_verdict,
+                                          diagnose_observed, simulations_planned)
+from skidsteer.diagnosis.evaluate import SEARCH_STARTS, STARTS
+from skidsteer.diagnosis.intervals import unprobed_note
+from skidsteer.diagnosis.next_command import CONFIRM, PROPOSAL_STARTS, worth_recording
+from skidsteer.diagnosis.split import held_out_groups, holds_out_commands
+from skidsteer.diagnosis.verdict import Z_CONSISTENT
 from skidsteer.features import signals
-from skidsteer.features.extract import (AXES, N_POWER, STEADY_FROM_S, comparison_feature_names,
-                                        steady_summary, steady_window)
+from skidsteer.features.extract import (AXES, STEADY_FROM_S, comparison_feature_names,
+                                        steady_window)
 from skidsteer.reports import figures as plots
 from skidsteer.reports.markdown import fmt, table
 from skidsteer.robot import load_spec
@@ -88,7 +92,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     several datasets of one robot share their simulations.
 
     search_starts: the simulated starts a fit's training error is the median over
-    (diagnosis.fit.SEARCH_STARTS; the search costs as many times the simulations).
+    (diagnosis.evaluate.SEARCH_STARTS; the search costs as many times the simulations).
 
     model_spread: read every error against the trials' spread and the base model's own
     start-to-start spread together (diagnosis.comparison.Comparison.with_model_spread).
@@ -98,7 +102,7 @@ def diagnose(dataset_dir, out_dir=None, *, model: str | None = None,
     (diagnosis.next_command; simulated only on such verdicts).
 
     held_out: the commands whose runs test the fits, by label or command alone
-    (diagnosis.fit.held_out_groups; default: the diagnosis chooses, diagnosis.fit.split).
+    (diagnosis.split.held_out_groups; default: the diagnosis chooses, diagnosis.split.split).
     """
     started = time.time()
     backend = backend or LocalBackend(nthread)
@@ -155,22 +159,15 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
     observed = _observed(dataset_dir, model)
     if out_dir is not None:
         begin_outputs(Path(out_dir), "comparison.json", "compare")
-    groups, factory = observed.groups, model_factory(timestep=timestep)
-    bar = _Progress(len(groups) * STARTS, progress, "compare")
+    bar = _Progress(len(observed.groups) * STARTS, progress, "compare")
     try:
-        base = simulate_groups([(factory, groups)], observed.duration_s, chain, progress=bar,
-                               backend=backend)[0]
-        observed = observed.with_wheel_rates(base.wheel_rates_hz)  # as diagnose_observed does
-        comparison = Comparison(observed)
-        all_runs = np.arange(len(observed.run_group))
-        error = median_error(comparison, over_starts(
-            base, factory, groups, list(range(len(groups))), observed.duration_s, chain,
-            backend, bar, None), all_runs)
+        observed, comparison, base, error = base_error_over_starts(
+            observed, timestep=timestep, chain=chain, backend=backend, progress=bar)
     finally:
         bar.close()
     summary = {
         "baseline_error_all_runs": error,
-        "verdict": "no-discrepancy" if error <= Z_CONSISTENT else "discrepancy",
+        "verdict": base_verdict(error),
         "discrepancies": comparison.discrepancies(base.features),
         "skipped_runs": observed.skipped,
         "dataset": {"root": str(Path(dataset_dir)), "runs": len(observed.run_files),
@@ -183,63 +180,6 @@ def compare(dataset_dir, out_dir=None, *, model: str | None = None, nthread: int
     if out_dir is not None:
         write_comparison(Path(out_dir), summary, observed, comparison, base, figures)
     return summary
-
-
-# ------------------------------------------------------------------ tables
-
-# Smallest credible spread of each readable feature: a Welch bin for the peaks,
-# the log-power resolution (comparison.LOG_POWER_RESOLUTION = 0.1 decade, i.e.
-# 12 % in amplitude) for the RMS.
-def _resolution(key: str, value: float) -> float:
-    if key.endswith("_hz"):
-        return signals.WELCH_RESOLUTION_HZ
-    return 0.12 * abs(value)
-
-
-def group_table(observed: Observed, comparison: Comparison, models: dict[str, Simulated]
-                ) -> list[dict]:
-    """Per group and readable feature: measured mean and trial spread, each model's
-    value and its z against the spread; plus each model's spectral distance (RMS z
-    of the band powers) and yaw rate."""
-    rows = []
-    runs = np.arange(len(observed.run_group))
-    zs = {name: comparison.z_scores(sim.features, runs) for name, sim in models.items()}
-    base = next(iter(models.values()))
-    bias = np.median(base.features[observed.run_group, -1] - observed.features[:, -1])
-    for gi, g in enumerate(observed.groups):
-        members = np.flatnonzero(observed.run_group == gi)
-        measured = [steady_summary(*observed.records[i]) for i in members]
-        simulated = {name: steady_summary(sim.time_s[gi], sim.accel[gi])
-                     for name, sim in models.items()}
-        # the mean a_x less the sensor's offset (bias) and the static a_x of the robot at
-        # rest (gravity along a tilted cube, read from the simulation's first sample)
-        centripetal = observed.features[members, -1] + bias - base.accel[gi][0, 0]
-        # yaw rate from the centripetal mean, scaled on the base simulation's (the
-        # turning centre is not the CoM: in a swivel it sits ahead of the cube by
-        # ~0.3 m, not 0.2 m, so a_x = omega^2 * 0.2 would overestimate omega)
-        sim_centripetal = base.features[gi, -1] - base.accel[gi][0, 0]
-        ratio = max(centripetal.mean(), 0.0) / sim_centripetal if sim_centripetal > 0 else np.nan
-        row = {"group": g.label, "omega_deg_s": g.omega_deg_s, "trials": len(members),
-               "measured_yaw_rate_from_centripetal_deg_s": float(
-                   base.mean_yaw_rate_deg_s[gi] * np.sqrt(ratio)),
-               "features": {}}
-        for name, sim in models.items():
-            row[f"{name}_yaw_rate_deg_s"] = sim.mean_yaw_rate_deg_s[gi]
-            row[f"{name}_spectral_distance"] = float(np.sqrt(np.nanmean(
-                zs[name][members, :N_POWER] ** 2)))
-        for key in measured[0]:
-            values = np.array([m[key] for m in measured])
-            mean = float(np.nanmean(values))
-            spread = float(np.nanstd(values, ddof=1)) if len(values) > 1 else 0.0
-            spread = max(spread, _resolution(key, mean))
-            entry = {"measured": mean, "trial_spread": spread}
-            for name in models:
-                v = simulated[name][key]
-                entry[name] = v
-                entry[f"{name}_z"] = (v - mean) / spread if spread > 0 else None
-            row["features"][key] = entry
-        rows.append(row)
-    return rows
 
 
 # ------------------------------------------------------------------ figures
@@ -315,12 +255,6 @@ def _base_by_group(dataset: dict) -> list[str]:
                         for label, error in errors.items()) + ".", ""]
 
 
-def unprobed_note(sides: list[str] | None) -> str:
-    """An interval's sides that end at the prior's bound for want of a probe
-    (fit.unprobed_sides): the search did not go there, the data may well bound it."""
-    return f"; not probed {' or '.join(sides)}" if sides else ""
-
-
 def _next_command_section(proposals: list[dict], purpose: str | None) -> list[str]:
     """report.md's "The next command to record" (diagnosis.next_command): the candidate
     swivels, how far apart the two models predict them, and what to do with the first."""
@@ -348,7 +282,7 @@ def _next_command_section(proposals: list[dict], purpose: str | None) -> list[st
                      _fmt(p["predicted"][first]), _fmt(p["predicted"][second])]
                     for p in proposals]), ""]
     top = proposals[0]
-    if top["separation"] >= Z_CONSISTENT:
+    if worth_recording(top):
         lines += [f"Record `{top['command']}` (as many trials as the other commands), add its "
                   f"runs to the dataset and diagnose it again with `--hold-out "
                   f"'{top['command']}'`: {then}", ""]
@@ -376,7 +310,7 @@ def group_markdown(rows: list[dict], models: list[str]) -> str:
             cells = [key, f"{_fmt(e['measured'])} ± {_fmt(e['trial_spread'], 2)}"]
             for m in models:
                 z = e.get(f"{m}_z")
-                flag = " **!**" if z is not None and abs(z) > 3 else ""
+                flag = " **!**" if significant(z) else ""
                 cells.append(f"{_fmt(e[m])} (z {_fmt(z, 2)}){flag}")
             cells_by_key.append(cells)
         out.append(table(["feature (steady window)", "measured ± trial spread", *models],
@@ -399,7 +333,8 @@ def write_comparison(out: Path, summary: dict, observed: Observed, comparison: C
         f"**{summary['baseline_error_all_runs']:.2f}**.", "",
         "## Largest discrepancies (trial-mean z > 3)", "",
         _discrepancy_table(summary["discrepancies"]), "",
-        "## Per command (! marks |z| > 3)", "", group_markdown(rows, ["base"]), ""]
+        f"## Per command (! marks |z| > {SIGNIFICANT_Z:g})", "",
+        group_markdown(rows, ["base"]), ""]
     if figures:
         plot_spectra(observed, {"base": base}, out / "figures" / "spectra.png")
         plot_features_vs_omega(rows, ["base"], out / "figures" / "features_vs_omega.png")
@@ -519,7 +454,8 @@ def write_diagnosis(out: Path, diagnosis: dict, found, timestep: float | None,
     elif likely is not None:
         lines += [f"Left after the most likely cause, {likely['cause']}:", "",
                   _discrepancy_table(likely["left"]), ""]
-    lines += ["## Per command (! marks |z| > 3)", "", group_markdown(rows, list(shown)), ""]
+    lines += [f"## Per command (! marks |z| > {SIGNIFICANT_Z:g})", "",
+              group_markdown(rows, list(shown)), ""]
     if figures:
         plot_spectra(observed, shown, out / "figures" / "spectra.png")
         plot_features_vs_omega(rows, list(shown), out / "figures" / "features_vs_omega.png")

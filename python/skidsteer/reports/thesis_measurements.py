@@ -56,7 +56,7 @@ class Feature:
 
 @dataclass(frozen=True)
 class Calibration:
-    """The runs a mechanism may be fitted on (issue 19, item 3)."""
+    """The runs a mechanism may be fitted on (the measurements file's [calibration])."""
 
     build: str
     mount: str

@@ -77,10 +77,7 @@ def blas_kernels() -> str:
     """The BLAS libraries numpy and scipy load and the kernels each picked (e.g. "blas
     openblas SkylakeX"), read by threadpoolctl.  OpenBLAS chooses its kernels by CPU
     model (OPENBLAS_CORETYPE overrides it): two machines whose libm features agree can
-    still differ here, and their features in the last bits (issue 21, stop 56: draw
-    1201's base error 2.8047478189428166 on an Intel Xeon, SkylakeX, and
-    2.804747818942987 on an AMD EPYC; 2.8047478189429844 on the Xeon with
-    OPENBLAS_CORETYPE=Haswell, the kernels OpenBLAS gives Zen)."""
+    still differ here, and their features in the last bits."""
     kernels = sorted({f"{i.get('internal_api', '?')} {i.get('architecture') or '?'}"
                       for i in threadpool_info() if i.get("user_api") == "blas"})
     return "blas " + (" ".join(kernels) if kernels else "none found")

@@ -68,8 +68,7 @@ def trial_start(m: mujoco.MjModel, rng: np.random.Generator, settle_s: float = 2
     flat floor with round wheels this changes nothing; on an uneven floor the wheels
     stand on other spots, and out-of-round wheels start at other phases, so the
     trials' spread shows how much of a start-up depends on them (a run-out's start-up
-    moves by 2-17 trial spreads with the wheels' angle alone, measured on issue 21's
-    draw-1006)."""
+    moves by several trial spreads with the wheels' angle alone)."""
     d = mujoco.MjData(m)
     yaw, wheel_angle = rng.uniform(0.0, 2 * np.pi, 2)
     parts = roles.roles_of(m)

@@ -82,16 +82,16 @@ class Cause:
     # the end of its prior nearest to it
     null_value: float
     # True when apply's seed changes the geometry (a rough floor, wheel phases):
-    # the diagnosis then chooses the realisation too (diagnosis.fit_cause)
+    # the diagnosis then chooses the realisation too (diagnosis.search.fit_cause)
     random_realisation: bool = False
     # parameters -> the same kind of effect on the other branch of an ambiguity the
     # features leave (a frame's roll and pitch stiffnesses exchanged): the diagnosis
-    # also searches from a fit's mirror image (diagnosis.fit.fit_every_parameter)
+    # also searches from a fit's mirror image (diagnosis.search.fit_every_parameter)
     mirror: Callable[[Mapping[str, float]], dict[str, float]] | None = None
     # () -> parameter sets a fit of every parameter also starts from (a coarse design over
     # parameters the main parameter's one-dimensional fit says nothing about: a frame's
     # roll and pitch stiffnesses, a floor's correlation length); the search starts from
-    # the best of them and the main fit (diagnosis.fit.fit_every_parameter)
+    # the best of them and the main fit (diagnosis.search.fit_every_parameter)
     design: Callable[[], list[dict[str, float]]] | None = None
     # how far (m) the robot's centre may move from its start with the cause's geometry
     # still under every wheel (a rough floor is a finite heightfield); None: anywhere.

@@ -124,11 +124,8 @@ def roughness_design() -> list[dict[str, float]]:
     """Start points over the RMS height and the correlation length (Cause.design).  An
     undulation of wavelength L passes under a wheel at v/L: the correlation length sets
     the band the floor excites, the RMS its power, and the main fit varies the RMS at
-    the prior's 0.05 m only.  A floor of long undulations is then fitted as a nearly flat
-    one: issue 21's draw-1041 (0.38 mm, 0.153 m on carpet) ended at 0.064 mm, 0.05 m
-    (training error 2.98), where at the truth's RMS and correlation length the fit's
-    realisations 0-7 score 1.43-2.30 but one (9.1), and at its RMS and 0.05 m 6.1-15.1
-    (measured on its training runs; the truth's own realisation 1.85)."""
+    the prior's 0.05 m only: a floor of long undulations would then be fitted as a
+    nearly flat one."""
     return [{HEIGHT_RMS.name: float(rms), CORRELATION_LENGTH.name: float(length)}
             for rms in HEIGHT_RMS.levels(DESIGN_LEVELS)
             for length in CORRELATION_LENGTH.levels(DESIGN_LEVELS)]

@@ -55,8 +55,8 @@ def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
 
 
 # assumed: 4 levels per stiffness (16 start points, each simulated on the training
-# commands: the most a contender's fit affords within issue 21's 5 min), at the middles
-# of four equal log-slices of the stiffness prior, 153-1961 N m/rad, whose rocking
+# commands: the most a contender's fit affords within the diagnosis's time target), at the
+# middles of four equal log-slices of the stiffness prior, 153-1961 N m/rad, whose rocking
 # frequencies lie 1.5x apart (2.7-9.6 Hz with the frame's 0.53 kg m^2)
 DESIGN_LEVELS = 4
 
@@ -65,9 +65,7 @@ def stiffness_design() -> list[dict[str, float]]:
     """Start points over the roll and pitch stiffnesses (Cause.design), damping at its
     prior's value.  The main fit varies both stiffnesses together (ratio 1); a frame
     whose axes differ by several times sits in a basin the search from there does not
-    reach: issue 21's draw-1003 (roll 169 N m/rad, pitch 9.6x) was fitted at roll 2244,
-    pitch 0.5x (training error 1.72), where the design's (153, 1961 N m/rad) scores 1.38
-    and the truth 1.35 (measured on its training runs)."""
+    reach."""
     levels = STIFFNESS.levels(DESIGN_LEVELS)
     return [{STIFFNESS.name: float(roll), PITCH_STIFFNESS_RATIO.name: float(pitch / roll),
              DAMPING_RATIO.name: DAMPING_RATIO.value} for roll in levels for pitch in levels]
