@@ -340,7 +340,8 @@ def test_runs_csv_with_bad_header_skips_everything_but_returns(tmp_path):
     reason = ds.skipped[0]["reason"]
     assert "missing column(s) ['omega_deg_s'], unknown column(s) ['omega']" in reason
     assert ds.skipped[1] == {"file": "a.csv",
-                             "reason": "a.csv: no row of runs.csv describes this file"}
+                             "reason": "a.csv: no row of runs.csv describes this file "
+                                       "(runs.csv is unusable: see its own entry)"}
 
 
 def test_dataset_from_thesis_names(tmp_path):

@@ -11,14 +11,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from skidsteer.data.dataset import run_file_name
+from skidsteer import cli_options as opt
+from skidsteer.data.dataset import read_dataset, run_file_name
 from skidsteer.data.files import write_atomically
 from skidsteer.data.imu import is_imu_folder
 from skidsteer.data.recording import DataError, write_run
@@ -30,6 +30,7 @@ from skidsteer.experiments.rest import tire_loads
 from skidsteer.experiments.straight import straight
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
 from skidsteer.experiments.swivel import run_swivel, swivel_summary
+from skidsteer.features.extract import comparison_features
 from skidsteer.reports.analysis import analyze_paths
 from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.reports.real_data import diagnose_recordings
@@ -40,6 +41,8 @@ from skidsteer.robot.plugin import library_path
 from skidsteer.simulation.backends import BACKENDS, BackendUnavailable, make_backend
 
 DATA_FORMAT = "docs/data-format.md"  # the dataset layout the readers accept
+# diagnosis.comparison's error when no run of a dataset can be compared
+NO_USABLE_RUNS = "no usable runs"
 DEFAULT = load_robot(DEFAULT_ROBOT)
 
 
@@ -98,22 +101,12 @@ def _add_variant(p: argparse.ArgumentParser) -> None:
 
 
 def _add_timestep(p: argparse.ArgumentParser, default=None, what="the model's") -> None:
-    p.add_argument("--timestep", type=_positive, default=default, metavar="DT",
+    p.add_argument("--timestep", type=opt.TIMESTEP, default=default, metavar="DT",
                    help=f"simulation time step, s (default: {what})")
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
-    return value
-
-
 def _add_backend_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--threads", type=int, default=2, help="threads of the local backend")
+    p.add_argument("--threads", type=opt.THREADS, default=2, help="threads of the local backend")
     p.add_argument("--backend", choices=BACKENDS, default="local",
                    help="where the runs step: threads on this machine, or one Ray task per "
                         "run (pip install 'skidsteer[ray]'); the numbers are the same")
@@ -278,12 +271,33 @@ def _run_on_dataset(func, args: argparse.Namespace, **extra):
                           progress=not args.no_progress, timestep=args.timestep,
                           figures=not args.no_figures, backend=backend, **extra)
     except (DataError, ValueError, FileNotFoundError) as err:
-        print(f"skidsteer: {err}", file=sys.stderr)
+        if NO_USABLE_RUNS not in str(err):
+            print(f"skidsteer: {err}", file=sys.stderr)
+            return None, 2
+        print(f"skidsteer: {args.dataset}: {NO_USABLE_RUNS}; each file, with the reason:",
+              file=sys.stderr)
+        for s in _unusable_runs(args.dataset, args.model):
+            print(f"  skipped {s['file']}: {s['reason']}", file=sys.stderr)
         return None, 2
     if args.json:
         _print_json(result)
         return None, 0
     return result, 0
+
+
+def _unusable_runs(dataset_dir, model: str | None) -> list[dict]:
+    """Every run of a dataset that compare and diagnose cannot use, with the reason: the
+    readers' skips and the records comparison_features refuses, as
+    diagnosis.comparison.Observed.from_dataset skips them (its error names the files
+    only)."""
+    dataset = read_dataset(dataset_dir, robot=model)
+    skipped = list(dataset.skipped)
+    for info, recording in dataset.runs:
+        try:
+            comparison_features(recording.time_s, recording.accel)
+        except ValueError as err:
+            skipped.append({"file": info.file, "reason": f"{recording.path}: {err}"})
+    return skipped
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -433,9 +447,9 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--json", action="store_true", help="print the result as JSON")
 
     p = sub.add_parser("swivel", help="swivel in place and write the accelerometer log")
-    p.add_argument("--omega", type=float, default=30.0, help="commanded yaw rate, deg/s")
-    p.add_argument("--duration", type=float, default=20.0, help="recorded time, s")
-    p.add_argument("--settle", type=float, default=2.0, help="settling time before, s")
+    p.add_argument("--omega", type=opt.OMEGA, default=30.0, help="commanded yaw rate, deg/s")
+    p.add_argument("--duration", type=opt.DURATION, default=20.0, help="recorded time, s")
+    p.add_argument("--settle", type=opt.SETTLE, default=2.0, help="settling time before, s")
     p.add_argument("--mount", default=PLATFORM_MOUNT,
                    help="where the accelerometer is: platform (where the model puts it) or "
                         f"one of the robot's mounts ({DEFAULT.name}: wheel, on wheel 1)")
@@ -452,34 +466,36 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("pull", help="testing-machine pull test (Sec. 3.3, 6.2)")
     p.add_argument("--direction", choices=("lateral", "longitudinal"), default="lateral")
-    p.add_argument("--height", type=float, default=0.0, help="cable height above the floor, m")
+    p.add_argument("--height", type=opt.PULL_HEIGHT, default=0.0,
+                   help="cable height above the floor, m")
     p.add_argument("--wheels", choices=("locked", "spinning"), default="locked")
-    p.add_argument("--slip-velocity", type=float, default=0.0,
+    p.add_argument("--slip-velocity", type=opt.SLIP_VELOCITY, default=0.0,
                    help="wheel slip velocity r*omega when spinning, m/s")
-    p.add_argument("--distance", type=float, default=None, help="machine travel, m")
+    p.add_argument("--distance", type=opt.PULL_DISTANCE, default=None, help="machine travel, m")
     p.add_argument("--out", help="force-distance trace CSV")
     _add_timestep(p)
     common(p, build="platform")
     p.set_defaults(func=cmd_pull)
 
     p = sub.add_parser("straight", help="straight line at constant speed (Fig. 6.8)")
-    p.add_argument("--speed", type=float, default=1.0, help="v_x*, m/s")
-    p.add_argument("--duration", type=float, default=6.0, help="s (the 0.3 m/s^2 ramp takes 3.3 s)")
+    p.add_argument("--speed", type=opt.SPEED, default=1.0, help="v_x*, m/s")
+    p.add_argument("--duration", type=opt.DURATION, default=6.0,
+                   help="s (the 0.3 m/s^2 ramp takes 3.3 s)")
     _add_timestep(p)
     common(p)
     p.set_defaults(func=cmd_straight)
 
     p = sub.add_parser("sweep", help="swivel runs omega x floor x build into a dataset directory")
     p.add_argument("--out", required=True, help="dataset directory (runs.csv + one file per run)")
-    p.add_argument("--omega", type=float, action="append",
+    p.add_argument("--omega", type=opt.OMEGA, action="append",
                    help="deg/s, repeatable (default: the thesis's 2, 4, ..., 64)")
     _add_model(p)
     _add_build_floor(p, None, None, repeat=True)
     p.add_argument("--mount", default=PLATFORM_MOUNT)
     _add_variant(p)
-    p.add_argument("--trials", type=int, default=1, help="repeats per command (seeded)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--duration", type=float, default=20.0)
+    p.add_argument("--trials", type=opt.TRIALS, default=1, help="repeats per command (seeded)")
+    p.add_argument("--seed", type=opt.SEED, default=0)
+    p.add_argument("--duration", type=opt.DURATION, default=20.0)
     p.add_argument("--format", choices=("csv", "xlsx"), default="csv")
     _add_timestep(p)
     _add_backend_options(p)
@@ -523,8 +539,8 @@ def build_parser() -> argparse.ArgumentParser:
                            help="keep finished simulations here (default: OUT/.skidsteer-cache)"
                                 "; a rerun resumes from them, and diagnoses of several datasets "
                                 "of one robot can share one")
-            p.add_argument("--search-starts", type=int, default=SEARCH_STARTS, metavar="N",
-                           choices=range(1, STARTS + 1),
+            p.add_argument("--search-starts", type=opt.SEARCH_STARTS, default=SEARCH_STARTS,
+                           metavar="N",
                            help="a fit's training error is the median over N simulated "
                                 f"starts (1-{STARTS}; default {SEARCH_STARTS}: from rest only): "
                                 "a guard against one start in a rare regime, at N times the "
@@ -564,15 +580,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("render", help="video (.mp4) and still (.png) of the feed-forward swivel "
                                       "in a skidsteer.tasks task")
     p.add_argument("--task", default="swivel", help="pioneer3at task: swivel or swivel_smooth")
-    p.add_argument("--omega", type=float, default=60.0,
+    p.add_argument("--omega", type=opt.RENDER_OMEGA, default=60.0,
                    help="commanded yaw rate, deg/s (|omega| in [2, 64], the thesis's range)")
     p.add_argument("--out", default="swivel.mp4", help="video file (.mp4); the still is .png")
-    p.add_argument("--seconds", type=float, default=5.0, help="simulated and video time, s")
+    p.add_argument("--seconds", type=opt.VIDEO_SECONDS, default=5.0,
+                   help="simulated and video time, s")
     _add_build_floor(p)
-    p.add_argument("--width", type=int, default=640, help="pixels, even, <= 1280")
-    p.add_argument("--height", type=int, default=360, help="pixels, even, <= 720")
-    p.add_argument("--fps", type=float, default=25.0, help="frames per second, <= 100")
-    p.add_argument("--seed", type=int, default=0, help="initial-state perturbation seed")
+    p.add_argument("--width", type=opt.VIDEO_WIDTH, default=640, help="pixels, even, <= 1280")
+    p.add_argument("--height", type=opt.VIDEO_HEIGHT, default=360, help="pixels, even, <= 720")
+    p.add_argument("--fps", type=opt.VIDEO_FPS, default=25.0, help="frames per second, <= 100")
+    p.add_argument("--seed", type=opt.SEED, default=0, help="initial-state perturbation seed")
     p.set_defaults(func=cmd_render)
     return parser
 
@@ -600,6 +617,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     _check_names(parser, args)
     try:
+        opt.check_after_parse(parser, args)
         return args.func(args)
     except (ValueError, FileNotFoundError, BackendUnavailable) as error:
         print(f"skidsteer: error: {error}", file=sys.stderr)

@@ -217,6 +217,7 @@ def _infos_from_names(files: list[str], context: _Context) -> tuple[list[RunInfo
 def _read_runs_csv(root: Path, files: list[str], context: _Context
                    ) -> tuple[list[RunInfo], list[dict]]:
     infos, skipped, described = [], [], {}
+    unread = ""  # why a file no row describes may have no row: runs.csv itself unusable
     try:
         text = (root / RUNS_FILE).read_bytes().decode("utf-8-sig")
         reader = csv.reader(io.StringIO(text, newline=""))
@@ -252,7 +253,8 @@ def _read_runs_csv(root: Path, files: list[str], context: _Context
             infos.append(info)
     except (OSError, UnicodeDecodeError, csv.Error, DataError) as e:
         skipped.append({"file": RUNS_FILE, "reason": f"{root / RUNS_FILE}: unusable: {e}"})
-    skipped += [{"file": f, "reason": f"{f}: no row of {RUNS_FILE} describes this file"}
+        unread = f" ({RUNS_FILE} is unusable: see its own entry)"
+    skipped += [{"file": f, "reason": f"{f}: no row of {RUNS_FILE} describes this file{unread}"}
                 for f in files if f not in described and f not in {s["file"] for s in skipped}]
     return infos, skipped
 
