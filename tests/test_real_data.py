@@ -1,12 +1,9 @@
-"""Real recordings (issue 20): the IMU readers (BorealTC layout, ROS bags, MCAP), what
-they do with messy input, the replay of a run's own wheel speeds, and diagnose on
-real data, with a hidden effect found in it."""
+"""Real recordings: the IMU readers (BorealTC layout, ROS bags, MCAP), what they do with
+messy input, and the replay of a run's own wheel speeds (their diagnosis:
+test_real_diagnosis.py)."""
 
 from __future__ import annotations
 
-import dataclasses
-import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,16 +12,10 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin, Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
-from skidsteer.cli import main
 from skidsteer.data import DataError
-from skidsteer.data.imu import (ImuRun, WheelSpeeds, read_bag, read_borealtc_run,
-                                read_imu_folder, write_borealtc_run)
-from skidsteer.diagnosis.motion import COM_LATERAL_OFFSET
-from skidsteer.diagnosis.tread import TREAD_LUGS
+from skidsteer.data.imu import ImuRun, WheelSpeeds, read_bag, read_borealtc_run, read_imu_folder
 from skidsteer.experiments.replay import replay
-from skidsteer.features.segments import Segment, kind_of, wheel_order_lines
-from skidsteer.reports import real_data
-from skidsteer.reports.real_data import diagnose_recordings, run_segments, run_yaw_features
+from skidsteer.features.segments import kind_of, run_segments, run_yaw_features
 from skidsteer.robot import Setup, load_model
 
 EXCERPT = Path(__file__).parent / "data" / "borealtc"
@@ -211,214 +202,18 @@ def test_replay_drives_the_model_by_the_runs_own_wheel_speeds():
     assert feats["chi"] > 1.2
 
 
-def _schedule(number: int, pieces) -> ImuRun:
-    """A run of held wheel commands (left, right m/s, seconds each) at 100 Hz; its IMU
-    is filled in by replaying it."""
-    starts = np.concatenate([[0.0], np.cumsum([p[2] for p in pieces])])
-    t = np.arange(0, starts[-1], 0.01)
-    wheels = WheelSpeeds(starts[:-1], np.array([p[0] for p in pieces]),
-                         np.array([p[1] for p in pieces]))
-    return ImuRun(Path(f"imu_{number:02d}.csv"), t, np.tile([0, 0, 9.81], (len(t), 1)),
-                  np.zeros((len(t), 3)), wheels)
-
-
-# two runs turning in place both ways at two speeds and arcing, like an operator's
-# (the fit takes run 0's segments, the held-out check run 1's)
-SCHEDULES = [[(-0.08, 0.08, 6), (0.12, -0.12, 6), (0.10, 0.22, 6)],
-             [(0.10, -0.10, 6), (-0.06, 0.06, 6), (0.22, 0.12, 6)]]
-
-
-def _write_replays(root: Path, m) -> Path:
-    for i, pieces in enumerate(SCHEDULES):
-        write_borealtc_run(root, i, replay(m, _schedule(i, pieces)))
-    return root
-
-
-@pytest.fixture(scope="module")
-def hidden_com(tmp_path_factory):
-    """Runs replayed on a Husky whose centre of mass is centred (the URDF's sits 8.5 cm
-    right): data with an effect the base model lacks."""
-    truth = COM_LATERAL_OFFSET.parameters(0.0)
-    m = _husky(edit=lambda spec: COM_LATERAL_OFFSET.apply(spec, truth, 0))
-    return _write_replays(tmp_path_factory.mktemp("hidden") / "FLOORING", m)
-
-
-def test_diagnose_names_a_centre_of_mass_hidden_in_the_data(hidden_com, tmp_path):
-    result = diagnose_recordings(hidden_com, tmp_path / "out", progress=False)
-    assert result["verdict"] == "explained", result["reason"]
-    assert result["cause"] == "com_lateral_offset"
-    # recovered within 2 cm of the truth (0): a linear parameter through zero, its
-    # tolerance absolute; 2 cm moves chi in place by ~0.1 on this robot (set before
-    # the run)
-    assert abs(result["parameters"]["com_lateral_m"]) <= 0.02, result["parameters"]
-    saved = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
-    assert saved["runs"] and {"run", "segment", "kind", "yaw_rate_measured_deg_s",
-                              "yaw_rate_simulated_deg_s"} <= set(saved["runs"][0])
-    assert {r["kind"] for r in saved["runs"]} >= {"turn_in_place", "arc"}
-
-
-def test_diagnose_of_the_base_models_own_replay_finds_no_discrepancy(tmp_path):
-    root = _write_replays(tmp_path / "FLOORING", _husky())
-    result = diagnose_recordings(root, tmp_path / "out", progress=False)
-    assert result["verdict"] == "no-discrepancy", result["reason"]
-
-
-def test_diagnose_runs_on_the_real_excerpt_from_the_command_line(tmp_path, capsys):
-    data = tmp_path / "SANDY_LOAM"
-    shutil.copytree(EXCERPT / "SANDY_LOAM", data)
-    assert main(["diagnose", str(data), "--model", "husky_a200", "--out",
-                 str(tmp_path / "out"), "--no-progress"]) == 0
-    result = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
-    # sandy loam is not one of the Husky's floors: its default floor, and said so
-    assert result["floor"] == "flooring" and "not one of the model's floors" in \
-        result["floor_note"]
-    assert result["verdict"] == "unexplained"
-    assert "verdict: unexplained" in capsys.readouterr().out
-
-
-@pytest.mark.parametrize("option", [["--model-spread"], ["--search-starts", "3"],
-                                    ["--hold-out", "v0-w60"]])
-def test_options_of_a_datasets_fits_are_refused_on_real_recordings(tmp_path, capsys, option):
-    # a diagnosis of real recordings fits no causes: an option that shapes those fits
-    # would be silently ignored, so it is refused before anything is read or written
-    data = tmp_path / "SANDY_LOAM"
-    shutil.copytree(EXCERPT / "SANDY_LOAM", data)
-    out = tmp_path / "out"
-    assert main(["diagnose", str(data), "--model", "husky_a200", "--out", str(out),
-                 "--no-progress", *option]) == 2
-    err = capsys.readouterr().err
-    assert " ".join(option) in err and str(data) in err and "real recordings" in err
-    for other in {"--model-spread", "--search-starts", "--hold-out"} - {option[0]}:
-        assert other not in err  # the option given is named, not every one that would be
-    assert not out.exists()
-
-
-def test_segments_that_scatter_like_a_stuck_robot_decide_nothing():
-    # SNOW in BorealTC: in some segments the robot turns, in others it is stuck (chi 2
-    # to 30); the tolerance that scatter gives would call anything "no discrepancy"
-    chis = [2.0, 2.2, 9.0, 30.0, 2.1, 15.0, 40.0, 3.0]
-    rows = [{"kind": "turn_in_place", "yaw_rate_predicted_deg_s": 20.0, "chi_measured": c,
-             "chi_simulated": 2.1, "half": "fit" if i % 2 else "held_out"}
-            for i, c in enumerate(chis)]
-    result = real_data._verdict(rows, True, "", None, None)
-    assert result["verdict"] == "unexplained" and "scatters too much" in result["reason"]
-
-
-# ------------------------------------------------------------------ vibration features
-
-WHEEL_RADIUS_M = 0.1651  # the Husky's (URDF)
-LUGS = 18  # BorealTC's hard floors: lines at 17.3 Hz per m/s = 18 x the wheel rate
-
-
-def _straight_run(speed_mps, line_m_s2, seed, fs=100.0, duration_s=12.0):
-    """A straight run at one wheel speed: white accelerometer noise of 0.05 m/s^2 per
-    axis plus, on a_z, a sinusoid of amplitude line_m_s2 at LUGS x the wheel rate."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(0, duration_s, 1 / fs)
-    accel = rng.normal(0, 0.05, (len(t), 3)) + [0, 0, 9.81]
-    rate = speed_mps / (2 * np.pi * WHEEL_RADIUS_M)
-    accel[:, 2] += line_m_s2 * np.sin(2 * np.pi * LUGS * rate * t + seed)
-    wheels = WheelSpeeds(np.array([0.0]), np.array([speed_mps]), np.array([speed_mps]))
-    return ImuRun(Path(f"imu_{seed:02d}.csv"), t, accel, np.zeros((len(t), 3)), wheels)
-
-
-def _vibration(measured_line, simulated_line, n=6):
-    """vibration_verdict on n straight segments (0.2-0.8 m/s), recording and model each
-    with its own noise and a line of the given amplitude at LUGS wheel orders."""
-    rows, spectra = [], []
-    for i, v in enumerate(np.linspace(0.2, 0.8, n)):
-        rec, sim = _straight_run(v, measured_line, i), _straight_run(v, simulated_line, 50 + i)
-        seg = Segment(rec.path.name, 0.0, float(rec.time_s[-1]), "straight", v, v)
-        vm = real_data.run_vibration(seg, rec, WHEEL_RADIUS_M)
-        vs = real_data.run_vibration(seg, sim, WHEEL_RADIUS_M)
-        rows.append({"kind": "straight", "accel_rms_measured_m_s2": vm["rms_m_s2"],
-                     "accel_rms_simulated_m_s2": vs["rms_m_s2"]})
-        spectra.append((vm, vs))
-    return real_data.vibration_verdict(rows, spectra, True, "")
-
-
-def test_a_line_at_a_wheel_order_the_model_lacks_is_named_with_its_order():
-    # 0.02 m/s^2 on 0.05 m/s^2 white noise: a line ~14 dB over its background in a
-    # 0.2 Hz bin (the real lug lines are 9-20 dB), small enough to leave the RMS alone
-    result = _vibration(0.02, 0.0)
-    assert result["verdict"] == "unexplained", result["reason"]
-    (line,) = [f for f in result["kinds"]["straight"]["lines"] if f["axis"] == "z"]
-    assert line["order"] == LUGS and line["in"] == "recording" and line["missing"]
-    assert "wheel orders 18" in result["reason"]
-    assert result["unexplained_lines"] == [{"kind": "straight", "order": LUGS, "axis": "z"}]
-    assert not any(f["axis"] in "xy" for f in result["kinds"]["straight"]["lines"])
-    # the other way round: the model's line is one the recordings lack
-    result = _vibration(0.0, 0.02)
-    (line,) = result["kinds"]["straight"]["lines"]
-    assert line["in"] == "model" and line["missing"] and line["order"] == LUGS
-
-
-def test_the_same_vibration_in_recording_and_model_is_no_discrepancy():
-    # same line and noise level, other noise draws: the line's prominence differs by a
-    # Welch bin's scatter (~3 dB), the RMS by ~2 % (0.05 m/s^2 over 1100 samples)
-    result = _vibration(0.02, 0.02)
-    assert result["verdict"] == "no-discrepancy", result["reason"]
-    assert [f["order"] for f in result["kinds"]["straight"]["lines"]] == [LUGS]
-
-
-def test_a_louder_model_is_a_discrepancy_of_its_rms():
-    result = _vibration(0.0, 0.0, n=6)
-    assert result["verdict"] == "no-discrepancy", result["reason"]
-    rows = [{"kind": "straight", "accel_rms_measured_m_s2": [0.05] * 3,
-             "accel_rms_simulated_m_s2": [0.05, 0.05, 0.08]} for _ in range(6)]
-    flat = {"prominence_db": np.zeros((60, 3)), "power": np.full((60, 3), 1e-4)}
-    result = real_data.vibration_verdict(rows, [(flat, flat)] * 6, True, "")
-    assert result["verdict"] == "unexplained" and "straight a_z 1.6" in result["reason"]
-    assert result["kinds"]["straight"]["rms"]["z"]["discrepant"]
-    assert not result["kinds"]["straight"]["rms"]["x"]["discrepant"]
-
-
-def test_the_lug_count_is_the_line_whose_multiples_are_lines():
-    # BorealTC's flooring: 18 and its harmonics, some seen one order off (bins coarser
-    # than an order at low speed), and a stray line at 4
-    assert real_data.lug_count_of([4, 18, 19, 35, 36, 53, 54]) == 18
-    assert real_data.lug_count_of([18, 36, 54]) == 18
-    assert real_data.lug_count_of([22]) is None  # one line, no harmonic: no count
-    assert real_data.lug_count_of([12, 24, 36, 48]) == 12
-
-
-def test_lines_above_what_the_record_can_hold_are_not_judged():
-    # at 0.78 m/s the 36th order is at 27 Hz: a 100 Hz record shows it, a 50 Hz one
-    # (Nyquist 25 Hz, judged to 22.5 Hz) cannot, and the band's top follows
-    run = _straight_run(0.78, 0.05, 1)
-    rate = 0.78 / (2 * np.pi * WHEEL_RADIUS_M)
-    at_100 = wheel_order_lines(run.accel, 100.0, rate)
-    assert at_100["prominence_db"][LUGS - 1, 2] > 10
-    assert np.isfinite(at_100["prominence_db"][35, 2])
-    at_50 = wheel_order_lines(run.accel[::2], 50.0, rate)
-    assert at_50["prominence_db"][LUGS - 1, 2] > 10  # 13.5 Hz: below 22.5
-    assert np.isnan(at_50["prominence_db"][35]).all()
-    seg = Segment(run.path.name, 0.0, 11.0, "straight", 0.78, 0.78)
-    half = dataclasses.replace(run, time_s=run.time_s[::2], accel=run.accel[::2],
-                               gyro=run.gyro[::2])
-    assert real_data.run_vibration(seg, half, WHEEL_RADIUS_M)["band_hz"] == [1.0, 22.5]
-    assert real_data.run_vibration(seg, run, WHEEL_RADIUS_M)["band_hz"] == [1.0, 45.0]
-
-
-# straight runs both ways at three speeds, like a drive up and down a corridor (the fit
-# takes run 0's segments, the held-out check run 1's)
-STRAIGHT_SCHEDULES = [[(0.25, 0.25, 5), (-0.2, -0.2, 5), (0.3, 0.3, 5)],
-                      [(-0.25, -0.25, 5), (0.2, 0.2, 5), (-0.3, -0.3, 5)]]
-TREAD_TRUTH = {"lug_count": 18, "lug_depth_m": 5e-4}
-
-
-def test_diagnose_names_a_lugged_tread_hidden_in_the_data(tmp_path):
-    truth = TREAD_LUGS.parameters(TREAD_TRUTH["lug_depth_m"], TREAD_TRUTH)
-    m = _husky(edit=lambda spec: TREAD_LUGS.apply(spec, truth, 0))
-    root = tmp_path / "FLOORING"
-    for i, pieces in enumerate(STRAIGHT_SCHEDULES):
-        write_borealtc_run(root, i, replay(m, _schedule(i, pieces)))
-    vibration = diagnose_recordings(root, tmp_path / "out", progress=False)["vibration"]
-    assert vibration["verdict"] == "explained", vibration["reason"]
-    assert vibration["cause"] == "tread_lugs"
-    assert vibration["parameters"]["lug_count"] == 18
-    # the depth within the accelerometer causes' factor 1.5 of the truth (a line's
-    # power grows as the depth's square; set before the run)
-    depth = vibration["parameters"]["lug_depth_m"]
-    assert TREAD_TRUTH["lug_depth_m"] / 1.5 <= depth <= 1.5 * TREAD_TRUTH["lug_depth_m"]
-    assert {f["order"] for f in vibration["gain"]["lines"]} >= {18}
+def test_replay_applies_the_models_rim_speed_per_logged_speed():
+    # a model stating that its rims turn 1.5 times the logged wheel speed turns as the
+    # plain model does at 1.5 times the command (a turn in place: chi per logged speed
+    # falls by 1.5)
+    t = np.arange(0, 6, 0.01)
+    wheels = WheelSpeeds(np.array([0.0]), np.array([-0.1]), np.array([0.1]))
+    fast = WheelSpeeds(np.array([0.0]), np.array([-0.15]), np.array([0.15]))
+    run = ImuRun(Path("imu_00.csv"), t, np.tile([0, 0, 9.81], (len(t), 1)),
+                 np.zeros((len(t), 3)), wheels)
+    from skidsteer.robot import roles
+    scaled = _husky(edit=lambda spec: roles.set_spec_numeric(
+        spec, "drive.logged_speed_scale", 1.5))
+    a = replay(scaled, run)
+    b = replay(_husky(), ImuRun(run.path, t, run.accel, run.gyro, fast))
+    np.testing.assert_allclose(a.gyro[:, 2], b.gyro[:, 2], rtol=1e-9, atol=1e-12)

@@ -67,6 +67,7 @@ def random_config(rng: np.random.Generator, contact_point: str = "coulomb",
         config["slip_law"] = slip_law
         if rng.random() < 0.5:
             config["lateral_friction_ratio"] = rng.uniform(0.4, 1.6)
+            config["tread_lateral_friction_ratio"] = rng.uniform(0.5, 1.2)
     return {k: (repr(float(v)) if not isinstance(v, str) else v) for k, v in config.items()}
 
 
@@ -127,7 +128,9 @@ def compare(m: mujoco.MjModel, ref: TireReference, rng: np.random.Generator, tri
                 k = wheel_contact(m, d, wheel, ref.floors)[0]
                 mu = friction_factors(ref.params, k)
                 # saturated: eq. 4.12a's mu_x at 1, or the combined law on its ellipse
-                on_limit = (math.hypot(mu[0], mu[1] / ref.params.lateral_friction_ratio)
+                rho = (ref.params.lateral_friction_ratio
+                       * ref.params.tread_lateral_friction_ratio)
+                on_limit = (math.hypot(mu[0], mu[1] / rho)
                             >= 1 - 1e-12 if ref.params.slip_law == "combined" else mu[0] >= 1)
                 branches["saturated" if on_limit else "linear"] += 1
                 sliding = sliding_factor(ref.params, k)[0]

@@ -35,6 +35,7 @@ BAD_ATTRIBUTES = [
     ("lateral_friction_ratio", "0", "must lie in (0, 10]"),
     ("lateral_friction_ratio", "nan", "is not a number"),
     ("lateral_friction_ratio", "12", "must lie in (0, 10]"),
+    ("tread_lateral_friction_ratio", "-1", "must lie in (0, 10]"),
     ("damping_y", "abc", "is not a number"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler
 ]

@@ -83,7 +83,8 @@ class TireParams:
     # "thesis": eq. 4.12a/b per direction; "combined": Coulomb friction on the resultant
     # slip velocity, the friction ellipse of axes mu_x,max and rho mu_x,max
     slip_law: str = _DEFAULTS["slip_law"]
-    lateral_friction_ratio: float = _DEFAULTS["lateral_friction_ratio"]  # rho
+    lateral_friction_ratio: float = _DEFAULTS["lateral_friction_ratio"]  # the floor's
+    tread_lateral_friction_ratio: float = _DEFAULTS["tread_lateral_friction_ratio"]  # the tyre's
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -144,7 +145,7 @@ def friction_slopes(p: TireParams, k: Kinematics) -> tuple[float, float]:
 
 def _friction(p: TireParams, k: Kinematics):
     rolling, slip_x, slip_y = abs(k.rolling_speed), abs(k.slip_x), abs(k.slip_y)
-    rho = p.lateral_friction_ratio
+    rho = p.lateral_friction_ratio * p.tread_lateral_friction_ratio
     if p.slip_law == "combined":
         # force against (u_x, rho^2 u_y) on the ellipse, magnitude g = min(1, q / (r w lm))
         q = math.hypot(slip_x, rho * slip_y)

@@ -33,7 +33,8 @@ typedef struct {
   mjtNum reference_load;   // N_0, N: the normal load at which K_y holds
   int combined_slip;       // 0: eq. 4.12a/b per direction; 1: friction limit on the
                            //   resultant slip (the friction ellipse)
-  mjtNum lateral_ratio;    // mu_y,max / mu_x,max: the ellipse's axes (1: isotropic)
+  mjtNum lateral_ratio;    // mu_y,max / mu_x,max: the ellipse's axes (1: isotropic), the
+                           //   floor's ratio times the tread's
   int relay;               // 0: Coulomb contact point (eq. 4.9/4.13, kinetic friction kept);
                            // 1: eq. 6.4 as the thesis simulated it (relay, no kinetic friction)
 } tireParams;

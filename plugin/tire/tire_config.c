@@ -44,6 +44,7 @@ enum {
   ATTR_FLOOR_NORMAL,
   ATTR_SLIP_LAW,
   ATTR_LATERAL_FRICTION_RATIO,
+  ATTR_TREAD_LATERAL_FRICTION_RATIO,
   TIRE_NATTRIBUTE
 };
 
@@ -287,6 +288,16 @@ static const skidsteerTireAttribute kAttributeTable[TIRE_NATTRIBUTE] = {
       .source = "the floor's lateral over longitudinal friction (static and kinetic alike): "
           "the friction ellipse's axes; 1: isotropic, as the thesis takes the lateral pulls "
           "of Sec. 3.3 (the only friction it measured) for both directions"},
+  [ATTR_TREAD_LATERAL_FRICTION_RATIO] = {
+      .name = "tread_lateral_friction_ratio", .symbol = "", .kind = SKIDSTEER_TIRE_NUMBER,
+      .default_value = 1, .default_text = "1",
+      .low = 0, .high = 10, .low_open = 1, .high_open = 0, .finite = 1,
+      .choices = "", .unit = "",
+      .rule = "must lie in (0, 10]",
+      .source = "the tyre's lateral over longitudinal friction on any floor (its tread: lugs "
+          "and blocks that grip along and slide across), multiplying the floor's "
+          "lateral_friction_ratio: a robot's property where lateral_friction_ratio is a "
+          "floor's; 1: isotropic (the thesis's tyres, Sec. 3.3)"},
 };
 
 // Floors measured in the thesis (Sec. 3.3, lateral pull tests of the platform, 225 N).
@@ -453,7 +464,8 @@ int tire_read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radi
   p->stiffness_y_load_exponent = cfg.value[ATTR_STIFFNESS_Y_LOAD_EXPONENT];
   p->reference_load = cfg.value[ATTR_REFERENCE_LOAD];
   p->combined_slip = cfg.choice[ATTR_SLIP_LAW] == 1;
-  p->lateral_ratio = cfg.value[ATTR_LATERAL_FRICTION_RATIO];
+  p->lateral_ratio =
+      cfg.value[ATTR_LATERAL_FRICTION_RATIO] * cfg.value[ATTR_TREAD_LATERAL_FRICTION_RATIO];
   *radius = cfg.value[ATTR_RADIUS];
   *implicit = cfg.choice[ATTR_COUPLING] == 1;
   *lug_count = (int)cfg.value[ATTR_LUG_COUNT];

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from skidsteer import cli_options as opt
-from skidsteer.data.dataset import read_dataset, run_file_name
+from skidsteer.data.dataset import run_file_name
 from skidsteer.data.files import write_atomically
 from skidsteer.data.imu import is_imu_folder
 from skidsteer.data.recording import DataError, write_run
@@ -30,7 +30,6 @@ from skidsteer.experiments.rest import tire_loads
 from skidsteer.experiments.straight import straight
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S, plan, run_sweep
 from skidsteer.experiments.swivel import run_swivel, swivel_summary
-from skidsteer.features.extract import comparison_features
 from skidsteer.reports.analysis import analyze_paths
 from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.reports.real_data import diagnose_recordings
@@ -42,7 +41,6 @@ from skidsteer.simulation.backends import BACKENDS, BackendUnavailable, make_bac
 
 DATA_FORMAT = "docs/data-format.md"  # the dataset layout the readers accept
 # diagnosis.comparison's error when no run of a dataset can be compared
-NO_USABLE_RUNS = "no usable runs"
 DEFAULT = load_robot(DEFAULT_ROBOT)
 
 
@@ -271,33 +269,12 @@ def _run_on_dataset(func, args: argparse.Namespace, **extra):
                           progress=not args.no_progress, timestep=args.timestep,
                           figures=not args.no_figures, backend=backend, **extra)
     except (DataError, ValueError, FileNotFoundError) as err:
-        if NO_USABLE_RUNS not in str(err):
-            print(f"skidsteer: {err}", file=sys.stderr)
-            return None, 2
-        print(f"skidsteer: {args.dataset}: {NO_USABLE_RUNS}; each file, with the reason:",
-              file=sys.stderr)
-        for s in _unusable_runs(args.dataset, args.model):
-            print(f"  skipped {s['file']}: {s['reason']}", file=sys.stderr)
+        print(f"skidsteer: {err}", file=sys.stderr)
         return None, 2
     if args.json:
         _print_json(result)
         return None, 0
     return result, 0
-
-
-def _unusable_runs(dataset_dir, model: str | None) -> list[dict]:
-    """Every run of a dataset that compare and diagnose cannot use, with the reason: the
-    readers' skips and the records comparison_features refuses, as
-    diagnosis.comparison.Observed.from_dataset skips them (its error names the files
-    only)."""
-    dataset = read_dataset(dataset_dir, robot=model)
-    skipped = list(dataset.skipped)
-    for info, recording in dataset.runs:
-        try:
-            comparison_features(recording.time_s, recording.accel)
-        except ValueError as err:
-            skipped.append({"file": info.file, "reason": f"{recording.path}: {err}"})
-    return skipped
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -329,19 +306,37 @@ def _print_verdict(result: dict, *more: str) -> None:
         print(f"  {name} = {value:.4g}{extra}")
 
 
+def _holds_recordings(path) -> bool:
+    """Real recordings (data.imu), or a folder of terrain folders of them."""
+    p = Path(path)
+    return is_imu_folder(p) or (p.is_dir() and any(
+        is_imu_folder(q) for q in p.iterdir() if q.is_dir()))
+
+
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    if is_imu_folder(args.dataset):
+    recordings = [_holds_recordings(p) for p in args.dataset]
+    if any(recordings):
         given = ([f"--search-starts {args.search_starts}"]
                  if args.search_starts != SEARCH_STARTS else []) + (
                      ["--model-spread"] if args.model_spread else []) + (
                      [f"--hold-out {c}" for c in args.hold_out or []])
         if given:
             print(f"skidsteer: {' and '.join(given)}: "
-                  f"{'apply' if len(given) > 1 else 'applies'} to a dataset's fits; "
-                  f"{args.dataset} holds real recordings, whose diagnosis fits no causes",
-                  file=sys.stderr)
+                  f"{'apply' if len(given) > 1 else 'applies'} to a swivel dataset's fits; "
+                  f"{', '.join(args.dataset)} hold real recordings, diagnosed by terrain "
+                  "(alternate runs held out)", file=sys.stderr)
+            return 2
+        if not all(recordings):
+            print("skidsteer: diagnose takes several paths only of real recordings (terrains); "
+                  "not recordings: " + ", ".join(p for p, r in zip(args.dataset, recordings)
+                                                   if not r), file=sys.stderr)
             return 2
         return _diagnose_recordings(args)
+    if len(args.dataset) != 1:
+        print(f"skidsteer: a swivel dataset ({DATA_FORMAT}) is diagnosed alone; got "
+              f"{len(args.dataset)} paths", file=sys.stderr)
+        return 2
+    args.dataset = args.dataset[0]
     result, code = _run_on_dataset(diagnose, args, candidates=args.cause or None,
                                    cache_dir=args.cache, search_starts=args.search_starts,
                                    model_spread=args.model_spread, held_out=args.hold_out)
@@ -368,26 +363,47 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _diagnose_recordings(args: argparse.Namespace) -> int:
-    """diagnose on real recordings (IMU runs with wheel speeds: reports.real_data)."""
+    """diagnose on real recordings of one robot on one or several terrains
+    (diagnosis.recordings; written by reports.real_data)."""
     if args.model is None:
-        print(f"skidsteer: {args.dataset} holds real recordings: name the robot they are of "
-              f"with --model (one of {', '.join(robot_names())}, a folder or an MJCF file)",
-              file=sys.stderr)
+        print(f"skidsteer: {', '.join(args.dataset)} hold real recordings: name the robot they "
+              f"are of with --model (one of {', '.join(robot_names())}, a folder or an MJCF "
+              "file)", file=sys.stderr)
         return 2
     try:
         result = diagnose_recordings(args.dataset, args.out, model=args.model,
-                                     progress=not args.no_progress, timestep=args.timestep)
+                                     progress=not args.no_progress,
+                                     leave_one_out=not args.no_leave_one_out,
+                                     candidates=args.cause or None)
     except (DataError, ValueError, FileNotFoundError) as err:
         print(f"skidsteer: {err}", file=sys.stderr)
         return 2
     if args.json:
         _print_json(result)
         return 0
-    _print_verdict(result, f"  floor: {result['floor_note']}")
-    vibration = result["vibration"]
-    print(f"vibration: {vibration['verdict']}: {vibration['reason']}")
-    print(f"{len(result['runs'])} segments of {len({r['run'] for r in result['runs']})} runs; "
-          f"report: {args.out}/report.md ({result['wall_time_s']} s)")
+    m = result["motion"]
+    print(f"motion: {m['verdict']}" + (f" cause: {m['cause']}" if m["cause"] else ""))
+    print(f"  {m['reason']}")
+    if m["named"]:
+        for name, value in m["named"]["robot"].items():
+            low, high = m["named"]["intervals"][name]
+            print(f"  robot {name} = {value:.4g} (interval {low:.3g} to {high:.3g})")
+        for terrain, values in m["named"]["terrain"].items():
+            for name, value in values.items():
+                low, high = m["named"]["intervals"][f"{name}@{terrain}"]
+                print(f"  {terrain} {name} = {value:.4g} (interval {low:.3g} to {high:.3g})")
+    for name, t in result["terrains"].items():
+        g = t["ground"]
+        chi = ", ".join(f"{k.replace('/held_out', '')} {e['measured']:.2f} measured, base "
+                        f"{e.get('base', float('nan')):.2f}"
+                        + (f", extended {e['extended']:.2f}" if "extended" in e else "")
+                        for k, e in t["chi"].items() if k.endswith("/held_out"))
+        print(f"{name}: {'deformable (' + '; '.join(g['evidence']) + ')' if g['deformable'] else 'rigid'}"
+              + (f"; held-out chi: {chi}" if chi else ""))
+    if result.get("lines"):
+        print(f"vibration: {result['lines']['verdict']}: {result['lines']['reason']}")
+    print(f"identified robot: {result['extended_model']}; report: {args.out}/report.md "
+          f"({result['wall_time_s']} s)")
     for s in result["skipped"]:
         print(f"  skipped {s.get('file')}: {s.get('reason')}")
     return 0
@@ -527,9 +543,15 @@ def build_parser() -> argparse.ArgumentParser:
             ("diagnose", cmd_diagnose, "name the cause of a dataset's discrepancies, fit it, "
                                        "measure the gain")):
         p = sub.add_parser(name, help=text)
-        p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})" + (
-            "; or real recordings (diagnose): a folder of imu_NN.csv with pro_NN.csv, a ROS "
-            "bag or an MCAP file, with --model" if name == "diagnose" else ""))
+        if name == "diagnose":
+            p.add_argument("dataset", nargs="+",
+                           help=f"a swivel dataset directory ({DATA_FORMAT}); or real "
+                                "recordings of one robot (--model) on one or several terrains: "
+                                "folders of imu_NN.csv with pro_NN.csv, ROS bags or MCAP files "
+                                "(a terrain each, named by its folder), or one folder of "
+                                "terrain folders")
+        else:
+            p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})")
         p.add_argument("--out", default=f"{name}-out", help="output directory")
         _add_model(p, default=None)
         if name == "diagnose":
@@ -556,6 +578,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "such as 'v0-w60 tile extended', or 'v0-w60' where one setup "
                                 "has it; default: every third command from the second, or "
                                 "one that shows the discrepancy)")
+            p.add_argument("--no-leave-one-out", action="store_true",
+                           help="real recordings on several rigid terrains: skip predicting "
+                                "each terrain from the robot identified on the others")
         _add_timestep(p)
         _add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")

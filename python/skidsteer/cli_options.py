@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from skidsteer.diagnosis.fit import STARTS
+from skidsteer.diagnosis.evaluate import STARTS
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S
 from skidsteer.robot import Setup, load_model, load_robot, resolve
 from skidsteer.simulation.drive import DriveGeometry
@@ -103,7 +103,7 @@ SEED = Bounded(0, 2**32 - 1, "", "NumPy's seed range", integer=True)
 THREADS = Bounded(1, 256, "", "threads on this machine: past its cores they only "
                   "queue", integer=True)
 SEARCH_STARTS = Bounded(1, STARTS, "", "the simulated starts of each command, "
-                        "diagnosis.fit.STARTS", integer=True)
+                        "diagnosis.evaluate.STARTS", integer=True)
 # the models' offscreen buffer (<visual><global offwidth/offheight>), skidsteer.tasks.video;
 # that the sizes are even (H.264) is checked there
 VIDEO_WIDTH = Bounded(16, 1280, "pixels", "the models' offscreen buffer", integer=True)

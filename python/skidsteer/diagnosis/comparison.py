@@ -117,8 +117,9 @@ class Observed:
             durations.append(float(rec.time_s[-1] - rec.time_s[0]))
             records.append((rec.time_s, rec.accel))
         if not feats:
-            raise ValueError(f"{dataset.root}: no usable runs (skipped: "
-                             f"{[s['file'] for s in skipped]})")
+            raise ValueError(f"{dataset.root}: no usable runs; each file, with the reason:\n"
+                             + "\n".join(f"  skipped {s['file']}: {s['reason']}"
+                                         for s in skipped))
         groups = [g for g, _ in group_runs(infos)]  # the package's one grouping
         index = {g: i for i, g in enumerate(groups)}
         return cls(groups, np.array([index[i.group] for i in infos]), files, np.array(feats),

@@ -3,7 +3,8 @@
 A recording of a real robot is driven by whatever its operator commanded, not by
 one constant swivel.  ``replay`` settles the model, then steps it with each side's
 servo target held at the run's wheel speed of the moment (m/s at the rim over the
-model's wheel radius), and returns the simulated IMU at the recording's own rate
+model's wheel radius, times the rim speed per logged speed the model states,
+``skidsteer.drive.logged_speed_scale``), and returns the simulated IMU at the recording's own rate
 and clock, through the same anti-aliased decimation a logger applies.
 """
 
@@ -15,6 +16,7 @@ import numpy as np
 from skidsteer.data.imu import ImuRun
 from skidsteer.features.signals import decimate
 from skidsteer.robot import roles
+from skidsteer.simulation import drive
 from skidsteer.simulation.drive import DriveGeometry
 from skidsteer.simulation.run import get_state, rollout, settle
 
@@ -34,6 +36,9 @@ def replay(m: mujoco.MjModel, run: ImuRun, settle_s: float = 2.0) -> ImuRun:
                          f"not a multiple of the model's time step {dt:g} s")
     factor = int(round(factor))
     geometry = DriveGeometry.from_model(m)
+    rim_per_logged = roles.model_numeric(m, "drive.logged_speed_scale", 1.0)
+    transmission = drive.ripple(m)
+    angle = np.zeros(2)  # each side's commanded wheel angle, carried across chunks
     r = roles.roles_of(m)
     accel_slice = r.sensor_slice(m, r.accelerometer, "accelerometer")
     gyro_slice = r.sensor_slice(m, r.gyro, "gyro")
@@ -50,10 +55,16 @@ def replay(m: mujoco.MjModel, run: ImuRun, settle_s: float = 2.0) -> ImuRun:
         t = t0 + (start + np.arange(n)) * dt
         left, right = run.wheels.at(t)
         ctrl = np.zeros((n, m.nu))
-        for a in geometry.left_actuators:
-            ctrl[:, a] = left / geometry.wheel_radius
-        for a in geometry.right_actuators:
-            ctrl[:, a] = right / geometry.wheel_radius
+        for side, (speed, actuators) in enumerate(((left, geometry.left_actuators),
+                                                   (right, geometry.right_actuators))):
+            omega = rim_per_logged * speed / geometry.wheel_radius
+            if transmission is not None:
+                theta = angle[side] + np.cumsum(omega) * dt
+                angle[side] = theta[-1]
+                omega = drive.rippled(omega, theta, geometry.wheel_radius, *transmission,
+                                      drive.RIPPLE_SIDE_PHASE[side])
+            for a in actuators:
+                ctrl[:, a] = omega
         states, sensors = rollout(m, d, ctrl, n, state)
         state = get_state(m, d)
         accel[start:start + n] = sensors[:, accel_slice]

@@ -18,6 +18,8 @@ import dataclasses
 import numpy as np
 from scipy import signal
 
+from skidsteer.features import signals
+
 MIN_SEGMENT_S = 3.0  # shorter spans are transitions, not trials
 SETTLE_S = 1.0  # the first second of a segment is the robot taking up the command
 # Kinds, from v = (left + right)/2 and d = (right - left)/2 (m/s): stopped below
@@ -182,3 +184,77 @@ def order_lines(prominence_db, min_db: float) -> list[int]:
         if p[i] >= left and p[i] > right:
             out.append(i)
     return out
+
+
+# ------------------------------------------------------------ features of a run's segments
+
+def run_segments(run, min_duration_s: float = MIN_SEGMENT_S) -> list[Segment]:
+    """The segments of an ImuRun with wheel speeds (none without)."""
+    if run.wheels is None or len(run.wheels.time_s) == 0:
+        return []
+    w = run.wheels
+    return segments(w.time_s, w.left_mps, w.right_mps, float(run.time_s[0]),
+                    float(run.time_s[-1]), run.path.name, min_duration_s)
+
+
+def run_yaw_features(segment: Segment, run, track_m: float) -> dict:
+    """yaw_features of a segment of an ImuRun with wheel speeds."""
+    left, right = run.wheels.at(run.time_s)
+    return yaw_features(segment, run.time_s, run.gyro[:, 2], left, right, track_m)
+
+
+def settled_window(segment: Segment, time_s) -> np.ndarray:
+    """The samples of a segment from SETTLE_S after its start to its end."""
+    time_s = np.asarray(time_s, float)
+    return (time_s >= segment.start_s + SETTLE_S) & (time_s <= segment.end_s)
+
+
+def lateral_acceleration(segment: Segment, run) -> float | None:
+    """The mean lateral specific force a_y (m/s^2) over the segment's settled window."""
+    window = settled_window(segment, run.time_s)
+    return float(np.mean(run.accel[window, 1])) if window.any() else None
+
+
+def centripetal_ratio(x, y) -> dict:
+    """How fast the robot moves for its logged speed, from its centripetal acceleration.
+
+    In a steady arc the IMU's lateral specific force is a_y = v Omega whatever the
+    tires do (the body-frame acceleration of a point moving at v while turning at
+    Omega; the IMU's fore-aft offset adds -Omega^2 x on a_x only): with x = v_logged
+    Omega_measured and y = a_y minus the run's own a_y when driving straight (the
+    IMU's tilt and bias), the slope k of y = k x is the true speed over the logged
+    one, times the gyro's scale error, independent of any friction law.  Returns k,
+    its standard error (segment residuals) and the number of segments (k None with
+    fewer than 3)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = x[ok], y[ok]
+    if len(x) < 3 or not np.any(x):
+        return {"k": None, "stderr": None, "n": int(len(x))}
+    k = float(x @ y / (x @ x))
+    residual = y - k * x
+    return {"k": k, "stderr": float(np.sqrt(residual @ residual / (len(x) - 1) / (x @ x))),
+            "n": int(len(x))}
+
+
+def segment_vibration(segment: Segment, run, wheel_radius_m: float) -> dict:
+    """A segment's vibration from SETTLE_S after its start: per axis the RMS (m/s^2) in
+    band_hz = [MIN_LINE_HZ, band_top_hz(fs)] and the wheel-order prominence and power
+    (orders x axes; wheel_order_lines) at each side's wheel rate (the logged command's),
+    the larger of the two sides (an arc's sides turn at two rates); None without 16
+    samples."""
+    window = settled_window(segment, run.time_s)
+    fs = run.sample_rate_hz
+    band = [MIN_LINE_HZ, band_top_hz(fs)]
+    accel = run.accel[window]
+    if len(accel) < 16:
+        return {"band_hz": band, "rms_m_s2": None, "prominence_db": None, "power": None}
+    freq, psd = signals.welch_spectrum(accel, fs)
+    rms = np.sqrt(signals.band_power(freq, psd, band))
+    sides = [wheel_order_lines(accel, fs, abs(v) / (2 * np.pi * wheel_radius_m))
+             for v in (segment.left_mps, segment.right_mps)]
+    with np.errstate(invalid="ignore"):
+        prominence = np.fmax(sides[0]["prominence_db"], sides[1]["prominence_db"])
+        power = np.fmax(sides[0]["power"], sides[1]["power"])
+    return {"band_hz": band, "rms_m_s2": [float(x) for x in rms], "prominence_db": prominence,
+            "power": power, "frequency_hz": freq, "psd": psd}

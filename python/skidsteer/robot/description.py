@@ -82,6 +82,9 @@ class Robot:
     variants: Mapping[str, Variant]
     # a single MJCF file given by path: every build name of a dataset maps to it
     single_file: Path | None = None
+    # what a diagnosis identified of this robot (diagnosis.extended_robot): its
+    # parameters with intervals, the terrains they came from, the rigid rolling current
+    identified: Mapping = dataclasses.field(default_factory=dict)
 
     @property
     def variant_names(self) -> tuple[str, ...]:
@@ -154,6 +157,12 @@ def load_robot(robot: str | Path | Robot = DEFAULT_ROBOT) -> Robot:
     if path.suffix.lower() == ".xml":
         if not path.is_file():
             raise FileNotFoundError(f"model file {path} does not exist")
+        sibling = path.parent / DESCRIPTION_FILE
+        if sibling.is_file():  # a robot folder's build, e.g. a diagnosis's extended robot
+            robot = _read(sibling.resolve())
+            for build in robot.builds.values():
+                if build.file.resolve() == path.resolve():
+                    return dataclasses.replace(robot, default_build=build.name)
         return _single_file(path.resolve())
     raise ValueError(f"unknown robot {text!r}: use one of {list(robot_names())}, a folder "
                      f"with a {DESCRIPTION_FILE}, or a path to an MJCF .xml file")
@@ -185,7 +194,7 @@ def _read(path: Path) -> Robot:
     except (OSError, tomllib.TOMLDecodeError) as err:
         raise ValueError(f"{path}: not a readable robot description ({err})") from None
     known = {"name", "summary", "default_build", "default_floor", "builds", "floors", "mounts",
-             "variants"}
+             "variants", "identified"}
     unknown = sorted(set(data) - known)
     if unknown:
         _fail(path, f"unknown key(s) {unknown} (known: {sorted(known)})")
@@ -238,4 +247,5 @@ def _read(path: Path) -> Robot:
             tuple(float(x) for x in inertia) if inertia else None,
             tuple(entry.get("inertia_builds", builds)))
     return Robot(str(data.get("name", folder.name)), folder, str(data.get("summary", "")),
-                 builds, default_build, floors, default_floor, mounts, variants)
+                 builds, default_build, floors, default_floor, mounts, variants,
+                 identified=_table(data, "identified", path))

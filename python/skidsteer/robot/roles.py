@@ -13,7 +13,9 @@ A model says it with ``<custom><text name="skidsteer.ROLE" data="NAMES"/></custo
   that type (two or more need the text);
 - the tire forces: the plugin sensor of the tire instance;
 - ``skidsteer.part.mast`` / ``skidsteer.part.payload``: never inferred; the
-  causes that act on them do not apply without.
+  causes that act on them do not apply without;
+- ``<numeric name="skidsteer.drive.logged_speed_scale">``: the wheels' rim speed per
+  wheel speed in a recording of the robot (1 without), which a replay applies.
 """
 
 from __future__ import annotations
@@ -44,6 +46,27 @@ def model_text(m: mujoco.MjModel, role: str) -> str | None:
 def spec_text(spec: mujoco.MjSpec, role: str) -> str | None:
     text = spec.text(PREFIX + role)
     return None if text is None else text.data
+
+
+def model_numeric(m: mujoco.MjModel, role: str, default: float) -> float:
+    """The value of <numeric name="skidsteer.ROLE">, default without one."""
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, PREFIX + role)
+    if i < 0:
+        return default
+    return float(m.numeric_data[int(m.numeric_adr[i])])
+
+
+def spec_numeric(spec: mujoco.MjSpec, role: str, default: float) -> float:
+    numeric = spec.numeric(PREFIX + role)
+    return default if numeric is None else float(numeric.data[0])
+
+
+def set_spec_numeric(spec: mujoco.MjSpec, role: str, value: float) -> None:
+    """Sets (adding it if needed) <numeric name="skidsteer.ROLE" data="value">."""
+    numeric = spec.numeric(PREFIX + role)
+    if numeric is None:
+        numeric = spec.add_numeric(name=PREFIX + role, size=1)
+    numeric.data = [float(value)]
 
 
 def _only(kind: str, ids: list[int], names: list[str], role: str) -> int | None:

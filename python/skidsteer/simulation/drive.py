@@ -76,3 +76,36 @@ def firmware_ramp(t, target: float, acceleration: float):
     """The firmware's ramp to a target (Sec. 6.1: the P3-AT limits its accelerations):
     rising at `acceleration` from 0 at t = 0, then held; either sign."""
     return np.sign(target) * np.minimum(abs(target), acceleration * np.maximum(t, 0.0))
+
+
+# A drivetrain's transmission error (gear mesh, belt teeth): the wheel turns ahead of
+# and behind its motor by a small angle that repeats ORDER times per wheel revolution.
+# A model states it with <numeric name="skidsteer.drive.ripple_order" data="n"/> and
+# <numeric name="skidsteer.drive.ripple_error_m" data="e1 e2 ..."/>: the error's
+# amplitude at the rim (m) at n, 2n, ... times the wheel's rotation rate.  The two sides
+# are driven by independent motors: their errors are taken in quadrature (assumed: a
+# random relative phase puts, on average, half of a line's power in the sides' common
+# mode, fore-aft, and half in their difference, yaw).
+RIPPLE_SIDE_PHASE = (0.0, np.pi / 2)  # left, right
+
+
+def ripple(m: mujoco.MjModel) -> tuple[float, np.ndarray] | None:
+    """(order, rim error amplitudes per harmonic, m) the model states, None without."""
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, "skidsteer.drive.ripple_order")
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_NUMERIC, "skidsteer.drive.ripple_error_m")
+    if i < 0 or j < 0:
+        return None
+    order = float(m.numeric_data[m.numeric_adr[i]])
+    errors = np.array(m.numeric_data[m.numeric_adr[j]:m.numeric_adr[j] + m.numeric_size[j]])
+    return (order, errors) if order > 0 and np.any(errors) else None
+
+
+def rippled(omega_rad_s: np.ndarray, angle_rad: np.ndarray, radius_m: float, order: float,
+            errors_m: np.ndarray, phase: float) -> np.ndarray:
+    """A side's speed target with its transmission error: omega (1 + sum_k (e_k / r) k n
+    cos(k n angle + phase)), angle the side's commanded wheel angle: the speed of a
+    wheel that lags its motor by (e_k / r) sin(k n angle + phase)."""
+    out = np.array(omega_rad_s, float)
+    for k, e in enumerate(errors_m, start=1):
+        out += omega_rad_s * (e / radius_m) * k * order * np.cos(k * order * angle_rad + phase)
+    return out
