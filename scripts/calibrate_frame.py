@@ -4,7 +4,7 @@ swivel (issue 19, item 3).
 Fitted set: Table 5.2 of the thesis, the free responses of the extended robot at
 rest (roll, pitch, yaw: peak frequency and decay rate, measured with the cube on
 the platform as the model's accelerometer is), read from
-python/skidsteer/reports/thesis_measurements.toml.  The swivel features at
+python/skidsteer/data/thesis_measurements.toml.  The swivel features at
 omega <= 40 deg/s that the issue names as the fitted set carry no information on
 the frame here: every point of the frame's prior stays below 0.19 m/s^2 of steady
 a_y amplitude at 20-45 deg/s on concrete and no wheel lifts

@@ -4,7 +4,7 @@ predicted set, with its lift-off onset and the yaw rate beside it.
 
 The features, their rules and thresholds, and which of them are in the fitted set
 (every run the rule reads is of the extended build on concrete or carpet at
-omega <= 40 deg/s) are python/skidsteer/reports/thesis_measurements.toml's, decided by
+omega <= 40 deg/s) are python/skidsteer/data/thesis_measurements.toml's, decided by
 skidsteer.diagnosis.thesis_features; the runs are
 skidsteer.reports.reproduction.mechanism_features's.  No mechanism here was
 fitted on a swivel feature: each is at the middle of its physical prior (the

@@ -10,8 +10,9 @@ import pytest
 
 from skidsteer.features import signals
 from skidsteer.diagnosis import thesis_features, thesis_targets
-from skidsteer.reports import reproduction, thesis_measurements
-from skidsteer.reports.thesis_measurements import MeasurementsError, load
+from skidsteer.data import thesis_measurements
+from skidsteer.reports import reproduction
+from skidsteer.data.thesis_measurements import MeasurementsError, load
 
 from test_report import _run, _thesis_like
 

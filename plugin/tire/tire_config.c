@@ -367,6 +367,13 @@ typedef struct {
 } tireConfig;
 
 
+// An instance's name for messages ("(unnamed)" without one).
+const char* tire_instance_name(const mjModel* m, int instance) {
+  const char* name = mj_id2name(m, mjOBJ_PLUGIN, instance);
+  return name ? name : "(unnamed)";
+}
+
+
 static void invalid(const mjModel* m, int instance, const skidsteerTireAttribute* a,
                     const char* text, mjtNum value, const char* rule) {
   if (text && text[0]) {

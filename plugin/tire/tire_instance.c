@@ -9,12 +9,6 @@
 #include "tire.h"
 #include "tire_internal.h"
 
-const char* tire_instance_name(const mjModel* m, int instance) {
-  const char* name = mj_id2name(m, mjOBJ_PLUGIN, instance);
-  return name ? name : "(unnamed)";
-}
-
-
 int tire_count_wheels(const mjModel* m, int instance) {
   int n = 0;
   for (int b = 1; b < m->nbody; b++) {

@@ -72,10 +72,10 @@ int tire_read_params(const mjModel* m, int instance, tireParams* p, mjtNum* radi
                      int* implicit, int* lug_count, mjtNum* lug_depth, int* cubic_floor,
                      int* surface_normal);
 
-// ---------------------------------------------------------------- tire_instance.c
-
 // The instance's name as the model gives it, or "(unnamed)".
 const char* tire_instance_name(const mjModel* m, int instance);
+
+// ---------------------------------------------------------------- tire_instance.c
 
 // The wheel bodies that name the instance.
 int tire_count_wheels(const mjModel* m, int instance);

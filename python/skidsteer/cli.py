@@ -9,7 +9,6 @@ the names of earlier releases, still work and say what replaced them.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import sys
 import time
@@ -34,10 +33,9 @@ from skidsteer.reports.analysis import analyze_paths
 from skidsteer.reports.diagnosis import compare, diagnose
 from skidsteer.reports.real_data import diagnose_recordings
 from skidsteer.reports.reproduction import reproduce
-from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot,
-                             robot_names)
+from skidsteer.robot import DEFAULT_ROBOT, PLATFORM_MOUNT, Setup, load_robot, robot_names
 from skidsteer.robot.plugin import library_path
-from skidsteer.simulation.backends import BACKENDS, BackendUnavailable, make_backend
+from skidsteer.simulation.backends import BackendUnavailable
 
 DATA_FORMAT = "docs/data-format.md"  # the dataset layout the readers accept
 # diagnosis.comparison's error when no run of a dataset can be compared
@@ -48,92 +46,10 @@ def _print_json(data: dict) -> None:
     print(json.dumps(data, indent=2))
 
 
-# ------------------------------------------------------------------ options
-
-class _Deprecated(argparse.Action):
-    """An option of an earlier release: stores into the new option's dest and says so."""
-
-    def __init__(self, option_strings, dest, replacement: str, append: bool = False,
-                 **kwargs):
-        self.replacement, self.append = replacement, append
-        super().__init__(option_strings, dest, **kwargs)
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        print(f"skidsteer: {option_string} is deprecated, use {self.replacement}",
-              file=sys.stderr)
-        if self.append:
-            setattr(namespace, self.dest, (getattr(namespace, self.dest, None) or []) + [values])
-        else:
-            setattr(namespace, self.dest, values)
-
-
-def _add_build_floor(p: argparse.ArgumentParser, build: str | None = "extended",
-                     floor: str | None = "concrete", repeat: bool = False) -> None:
-    """--build and --floor (of the default robot; any name of --model's robot is checked
-    when the model loads), with their deprecated aliases --config and --surface."""
-    action = "append" if repeat else "store"
-    extra = " (repeatable)" if repeat else ""
-    p.add_argument("--build", action=action, default=None if repeat else build,
-                   help=f"the robot's build{extra}; {DEFAULT.name}: "
-                        f"{', '.join(DEFAULT.builds)} (default {build or 'all'})")
-    p.add_argument("--floor", action=action, default=None if repeat else floor,
-                   help=f"the floor{extra}; {DEFAULT.name}: {', '.join(DEFAULT.floors)} "
-                        f"(default {floor or 'all'})")
-    p.add_argument("--config", dest="build", action=_Deprecated, replacement="--build",
-                   append=repeat, help=argparse.SUPPRESS)
-    p.add_argument("--surface", dest="floor", action=_Deprecated, replacement="--floor",
-                   append=repeat, help=argparse.SUPPRESS)
-
-
-def _add_model(p: argparse.ArgumentParser, default=DEFAULT_ROBOT) -> None:
-    p.add_argument("--model", default=default,
-                   help=f"the robot: a name ({', '.join(robot_names())}), a folder with a "
-                        "robot.toml, or an MJCF .xml file")
-
-
-def _add_variant(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--variant", default=BASE_VARIANT,
-                   help=f"{BASE_VARIANT} (the model as written) or one of the robot's "
-                        f"variants ({DEFAULT.name}: thesis = the thesis's model as published, "
-                        "eq. 5.10 inertia and eq. 6.4 contact point)")
-
-
-def _add_timestep(p: argparse.ArgumentParser, default=None, what="the model's") -> None:
-    p.add_argument("--timestep", type=opt.TIMESTEP, default=default, metavar="DT",
-                   help=f"simulation time step, s (default: {what})")
-
-
-def _add_backend_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--threads", type=opt.THREADS, default=2, help="threads of the local backend")
-    p.add_argument("--backend", choices=BACKENDS, default="local",
-                   help="where the runs step: threads on this machine, or one Ray task per "
-                        "run (pip install 'skidsteer[ray]'); the numbers are the same")
-    p.add_argument("--address", default=None,
-                   help="the Ray cluster: 'auto' (the one running on this machine), "
-                        "'ray://HOST:10001' (Ray Client) or a head node's HOST:6379; "
-                        "default: start a Ray instance on this machine")
-
-
-@contextlib.contextmanager
-def _backend(args: argparse.Namespace):
-    backend = make_backend(args.backend, nthread=args.threads, address=args.address)
-    try:
-        yield backend
-    finally:
-        backend.close()
-
-
-def _setup(args: argparse.Namespace, **fields) -> Setup:
-    values = {"robot": args.model, "build": args.build, "floor": args.floor,
-              "variant": getattr(args, "variant", BASE_VARIANT)}
-    values.update(fields)
-    return Setup(**values)
-
-
 # ------------------------------------------------------------------ commands
 
 def cmd_swivel(args: argparse.Namespace) -> int:
-    setup = _setup(args, mount=args.mount)
+    setup = opt.setup_of(args, mount=args.mount)
     started = time.perf_counter()
     run = run_swivel(args.omega, setup, args.duration, args.settle, args.timestep)
     wall = time.perf_counter() - started
@@ -174,7 +90,7 @@ def cmd_swivel(args: argparse.Namespace) -> int:
 
 
 def cmd_free_response(args: argparse.Namespace) -> int:
-    result = free_response(args.axis, _setup(args), timestep=args.timestep)
+    result = free_response(args.axis, opt.setup_of(args), timestep=args.timestep)
     if args.json:
         _print_json(result)
     else:
@@ -186,7 +102,7 @@ def cmd_free_response(args: argparse.Namespace) -> int:
 
 def cmd_pull(args: argparse.Namespace) -> int:
     result = pull(args.direction, args.height, args.wheels, args.slip_velocity,
-                  setup=_setup(args), distance_m=args.distance, timestep=args.timestep)
+                  setup=opt.setup_of(args), distance_m=args.distance, timestep=args.timestep)
     if args.out:
         trace = np.column_stack([result["trace"]["travel_m"], result["trace"]["force_N"]])
         write_atomically(Path(args.out), lambda tmp: np.savetxt(
@@ -205,7 +121,7 @@ def cmd_pull(args: argparse.Namespace) -> int:
 
 
 def cmd_straight(args: argparse.Namespace) -> int:
-    result = straight(args.speed, args.duration, setup=_setup(args), timestep=args.timestep)
+    result = straight(args.speed, args.duration, setup=opt.setup_of(args), timestep=args.timestep)
     if args.json:
         _print_json(result)
     else:
@@ -221,7 +137,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 variant=args.variant, suffix="." + args.format, seed=args.seed,
                 robot=args.model)
     started = time.perf_counter()
-    with _backend(args) as backend:
+    with opt.backend_of(args) as backend:
         run_sweep(Path(args.out), runs, progress=not args.quiet, backend=backend,
                   timestep=args.timestep)
     print(f"{len(runs)} runs in {args.out} ({time.perf_counter() - started:.1f} s)")
@@ -241,7 +157,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    with _backend(args) as backend:
+    with opt.backend_of(args) as backend:
         report = reproduce(Path(args.out), quick=args.quick, nthread=args.threads,
                            progress=not args.quiet, backend=backend, timestep=args.timestep)
     print(f"report: {report}")
@@ -249,7 +165,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def cmd_tire_loads(args: argparse.Namespace) -> int:
-    result = tire_loads(_setup(args))
+    result = tire_loads(opt.setup_of(args))
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -264,7 +180,7 @@ def _run_on_dataset(func, args: argparse.Namespace, **extra):
     """(result, exit code): func(dataset, out, ...) with the dataset commands' options;
     a bad dataset is a message naming it and exit code 2."""
     try:
-        with _backend(args) as backend:
+        with opt.backend_of(args) as backend:
             result = func(args.dataset, args.out, model=args.model,
                           progress=not args.no_progress, timestep=args.timestep,
                           figures=not args.no_figures, backend=backend, **extra)
@@ -455,10 +371,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     def common(p, build="extended", variant=True, json_output=True):
-        _add_model(p)
-        _add_build_floor(p, build)
+        opt.add_model(p)
+        opt.add_build_floor(p, build)
         if variant:
-            _add_variant(p)
+            opt.add_variant(p)
         if json_output:
             p.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -470,13 +386,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where the accelerometer is: platform (where the model puts it) or "
                         f"one of the robot's mounts ({DEFAULT.name}: wheel, on wheel 1)")
     p.add_argument("--out", help=f"accelerometer log, .csv or LabVIEW .xlsx ({DATA_FORMAT})")
-    _add_timestep(p)
+    opt.add_timestep(p)
     common(p)
     p.set_defaults(func=cmd_swivel)
 
     p = sub.add_parser("free-response", help="release and ring down (Sec. 5.2, 6.2)")
     p.add_argument("--axis", choices=tuple(FREE_RESPONSE_AXES), default="roll")
-    _add_timestep(p, 1e-5, "1e-5, where the decay converges")
+    opt.add_timestep(p, 1e-5, "1e-5, where the decay converges")
     common(p)
     p.set_defaults(func=cmd_free_response)
 
@@ -489,7 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wheel slip velocity r*omega when spinning, m/s")
     p.add_argument("--distance", type=opt.PULL_DISTANCE, default=None, help="machine travel, m")
     p.add_argument("--out", help="force-distance trace CSV")
-    _add_timestep(p)
+    opt.add_timestep(p)
     common(p, build="platform")
     p.set_defaults(func=cmd_pull)
 
@@ -497,7 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", type=opt.SPEED, default=1.0, help="v_x*, m/s")
     p.add_argument("--duration", type=opt.DURATION, default=6.0,
                    help="s (the 0.3 m/s^2 ramp takes 3.3 s)")
-    _add_timestep(p)
+    opt.add_timestep(p)
     common(p)
     p.set_defaults(func=cmd_straight)
 
@@ -505,23 +421,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="dataset directory (runs.csv + one file per run)")
     p.add_argument("--omega", type=opt.OMEGA, action="append",
                    help="deg/s, repeatable (default: the thesis's 2, 4, ..., 64)")
-    _add_model(p)
-    _add_build_floor(p, None, None, repeat=True)
+    opt.add_model(p)
+    opt.add_build_floor(p, None, None, repeat=True)
     p.add_argument("--mount", default=PLATFORM_MOUNT)
-    _add_variant(p)
+    opt.add_variant(p)
     p.add_argument("--trials", type=opt.TRIALS, default=1, help="repeats per command (seeded)")
     p.add_argument("--seed", type=opt.SEED, default=0)
     p.add_argument("--duration", type=opt.DURATION, default=20.0)
     p.add_argument("--format", choices=("csv", "xlsx"), default="csv")
-    _add_timestep(p)
-    _add_backend_options(p)
+    opt.add_timestep(p)
+    opt.add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("analyze", help="the thesis's Appendix A analysis of runs or a dataset")
     p.add_argument("path", help=f"a run file (.csv/.xlsx) or a dataset directory ({DATA_FORMAT})")
     p.add_argument("--out", required=True, help="directory for analysis.json and figures")
-    _add_model(p)
+    opt.add_model(p)
     p.add_argument("--no-figures", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_analyze)
@@ -529,8 +445,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="every thesis experiment, report against its figures")
     p.add_argument("--out", required=True, help="directory for report.md, results.json, figures")
     p.add_argument("--quick", action="store_true", help="fewer omegas and shorter runs")
-    _add_timestep(p, None, "the models' own; the free responses' converged step")
-    _add_backend_options(p)
+    opt.add_timestep(p, None, "the models' own; the free responses' converged step")
+    opt.add_backend_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_reproduce)
 
@@ -553,7 +469,7 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             p.add_argument("dataset", help=f"dataset directory ({DATA_FORMAT})")
         p.add_argument("--out", default=f"{name}-out", help="output directory")
-        _add_model(p, default=None)
+        opt.add_model(p, default=None)
         if name == "diagnose":
             p.add_argument("--cause", action="append",
                            help="fit only this candidate (repeatable; default: all)")
@@ -581,8 +497,8 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--no-leave-one-out", action="store_true",
                            help="real recordings on several rigid terrains: skip predicting "
                                 "each terrain from the robot identified on the others")
-        _add_timestep(p)
-        _add_backend_options(p)
+        opt.add_timestep(p)
+        opt.add_backend_options(p)
         p.add_argument("--no-progress", action="store_true")
         p.add_argument("--no-figures", action="store_true")
         p.add_argument("--json", action="store_true")
@@ -591,9 +507,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("view", help="open a model in MuJoCo's interactive viewer")
     p.add_argument("target", nargs="?", default=DEFAULT.default_build,
                    help="a build of --model's robot, a robot's name, or an MJCF file")
-    _add_model(p)
+    opt.add_model(p)
     p.add_argument("--floor", default=None, help="the floor (default: as the MJCF has it)")
-    p.add_argument("--surface", dest="floor", action=_Deprecated, replacement="--floor",
+    p.add_argument("--surface", dest="floor", action=opt.Deprecated, replacement="--floor",
                    help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_view)
 
@@ -610,7 +526,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="swivel.mp4", help="video file (.mp4); the still is .png")
     p.add_argument("--seconds", type=opt.VIDEO_SECONDS, default=5.0,
                    help="simulated and video time, s")
-    _add_build_floor(p)
+    opt.add_build_floor(p)
     p.add_argument("--width", type=opt.VIDEO_WIDTH, default=640, help="pixels, even, <= 1280")
     p.add_argument("--height", type=opt.VIDEO_HEIGHT, default=360, help="pixels, even, <= 720")
     p.add_argument("--fps", type=opt.VIDEO_FPS, default=25.0, help="frames per second, <= 100")

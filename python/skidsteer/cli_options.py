@@ -11,6 +11,7 @@ tire law is not stable at.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import math
 import sys
@@ -19,7 +20,9 @@ import numpy as np
 
 from skidsteer.diagnosis.evaluate import STARTS
 from skidsteer.experiments.sweep import THESIS_OMEGAS_DEG_S
-from skidsteer.robot import Setup, load_model, load_robot, resolve
+from skidsteer.robot import (BASE_VARIANT, DEFAULT_ROBOT, Setup, load_model, load_robot,
+                             resolve, robot_names)
+from skidsteer.simulation.backends import BACKENDS, make_backend
 from skidsteer.simulation.drive import DriveGeometry
 
 
@@ -198,3 +201,88 @@ def _check_omegas(args: argparse.Namespace) -> None:
                       f"wheels will run at their limit, a swivel commanded at "
                       f"{math.copysign(reach.swivel_deg_s, omega):.0f} deg/s (less its "
                       "slip); the run is still named and logged as commanded")
+
+
+# ------------------------------------------------------------------ the options commands share
+
+DEFAULT = load_robot(DEFAULT_ROBOT)
+
+
+class Deprecated(argparse.Action):
+    """An option of an earlier release: stores into the new option's dest and says so."""
+
+    def __init__(self, option_strings, dest, replacement: str, append: bool = False,
+                 **kwargs):
+        self.replacement, self.append = replacement, append
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"skidsteer: {option_string} is deprecated, use {self.replacement}",
+              file=sys.stderr)
+        if self.append:
+            setattr(namespace, self.dest, (getattr(namespace, self.dest, None) or []) + [values])
+        else:
+            setattr(namespace, self.dest, values)
+
+
+def add_build_floor(p: argparse.ArgumentParser, build: str | None = "extended",
+                     floor: str | None = "concrete", repeat: bool = False) -> None:
+    """--build and --floor (of the default robot; any name of --model's robot is checked
+    when the model loads), with their deprecated aliases --config and --surface."""
+    action = "append" if repeat else "store"
+    extra = " (repeatable)" if repeat else ""
+    p.add_argument("--build", action=action, default=None if repeat else build,
+                   help=f"the robot's build{extra}; {DEFAULT.name}: "
+                        f"{', '.join(DEFAULT.builds)} (default {build or 'all'})")
+    p.add_argument("--floor", action=action, default=None if repeat else floor,
+                   help=f"the floor{extra}; {DEFAULT.name}: {', '.join(DEFAULT.floors)} "
+                        f"(default {floor or 'all'})")
+    p.add_argument("--config", dest="build", action=Deprecated, replacement="--build",
+                   append=repeat, help=argparse.SUPPRESS)
+    p.add_argument("--surface", dest="floor", action=Deprecated, replacement="--floor",
+                   append=repeat, help=argparse.SUPPRESS)
+
+
+def add_model(p: argparse.ArgumentParser, default=DEFAULT_ROBOT) -> None:
+    p.add_argument("--model", default=default,
+                   help=f"the robot: a name ({', '.join(robot_names())}), a folder with a "
+                        "robot.toml, or an MJCF .xml file")
+
+
+def add_variant(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--variant", default=BASE_VARIANT,
+                   help=f"{BASE_VARIANT} (the model as written) or one of the robot's "
+                        f"variants ({DEFAULT.name}: thesis = the thesis's model as published, "
+                        "eq. 5.10 inertia and eq. 6.4 contact point)")
+
+
+def add_timestep(p: argparse.ArgumentParser, default=None, what="the model's") -> None:
+    p.add_argument("--timestep", type=TIMESTEP, default=default, metavar="DT",
+                   help=f"simulation time step, s (default: {what})")
+
+
+def add_backend_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--threads", type=THREADS, default=2, help="threads of the local backend")
+    p.add_argument("--backend", choices=BACKENDS, default="local",
+                   help="where the runs step: threads on this machine, or one Ray task per "
+                        "run (pip install 'skidsteer[ray]'); the numbers are the same")
+    p.add_argument("--address", default=None,
+                   help="the Ray cluster: 'auto' (the one running on this machine), "
+                        "'ray://HOST:10001' (Ray Client) or a head node's HOST:6379; "
+                        "default: start a Ray instance on this machine")
+
+
+@contextlib.contextmanager
+def backend_of(args: argparse.Namespace):
+    backend = make_backend(args.backend, nthread=args.threads, address=args.address)
+    try:
+        yield backend
+    finally:
+        backend.close()
+
+
+def setup_of(args: argparse.Namespace, **fields) -> Setup:
+    values = {"robot": args.model, "build": args.build, "floor": args.floor,
+              "variant": getattr(args, "variant", BASE_VARIANT)}
+    values.update(fields)
+    return Setup(**values)

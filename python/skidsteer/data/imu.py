@@ -69,9 +69,16 @@ class WheelSpeeds:
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(left, right) at times t (s), held from each sample to the next (the
         schedule a logger or a controller holds between messages)."""
-        i = np.clip(np.searchsorted(self.time_s, np.asarray(t, float), side="right") - 1,
-                    0, len(self.time_s) - 1)
+        i = self._held(t)
         return self.left_mps[i], self.right_mps[i]
+
+    def current_at(self, t) -> np.ndarray | None:
+        """(len(t), 2) motor currents at times t, held as the speeds are; None without."""
+        return None if self.current_a is None else self.current_a[self._held(t)]
+
+    def _held(self, t) -> np.ndarray:
+        return np.clip(np.searchsorted(self.time_s, np.asarray(t, float), side="right") - 1,
+                       0, len(self.time_s) - 1)
 
 
 @dataclass(frozen=True, eq=False)

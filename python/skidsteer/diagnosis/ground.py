@@ -16,8 +16,10 @@ measured here and named in the verdict:
   median).
 
 A terrain is called deformable when its rolling current reaches ROLLING_RATIO times
-the rigid reference, or when two of the other signs show.  Stuck segments alone also
-happen on a hard floor (a drive too weak to break away on a grippy one).
+the rigid reference; without a current to compare (none logged, or no rigid
+reference), when both other signs show.  Stuck turns and scatter also happen on hard
+ground (a drive too weak to break away on a grippy floor, wheels spinning on ice), so
+where the rolling current says rigid, they do not overrule it.
 """
 
 from __future__ import annotations
@@ -81,7 +83,12 @@ def judge(rows: list[dict], stuck_chi: float, rigid_current: float | None) -> di
     if scattered:
         other.append("chi scatters beyond one behaviour (" + ", ".join(
             f"{k}: {found['relative_scatter'][k]:.0%} of the median" for k in scattered) + ")")
-    deformable = bool(evidence) or len(other) >= 2
+    deformable = bool(evidence) if ratio is not None else len(other) >= 2
     found["deformable"] = deformable
     found["evidence"] = evidence + other
+    if not deformable and ratio is None:
+        found["evidence"].append(
+            "taken as rigid for want of evidence: no straight-driving current here"
+            if current is None else "taken as rigid for want of evidence: no rigid terrain's "
+            "straight-driving current to compare this one's with")
     return found

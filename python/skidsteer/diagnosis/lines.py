@@ -24,11 +24,13 @@ by replaying the held-out speeds at the fitted values).
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 from skidsteer.data.imu import ImuRun, WheelSpeeds
 from skidsteer.diagnosis import identify
+from skidsteer.diagnosis.verdict import verdict
 from skidsteer.experiments.replay import replay
 from skidsteer.features.extract import AXES
 from skidsteer.features.segments import Segment, order_lines, segment_vibration
@@ -108,8 +110,6 @@ def speed_of(row: dict) -> float:
 
 def straight_run(speed_mps: float, fs: float, duration_s: float = SURROGATE_S) -> ImuRun:
     """A straight run at one logged wheel speed (its IMU is replayed)."""
-    from pathlib import Path
-
     t = np.arange(0, duration_s, 1 / fs)
     wheels = WheelSpeeds(np.array([0.0]), np.array([speed_mps]), np.array([speed_mps]))
     return ImuRun(Path(f"straight_{speed_mps:.3f}.csv"), t, np.zeros((len(t), 3)),
@@ -272,8 +272,6 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
     (base replay); motion_values: per terrain, the motion model's fitted values, which
     the candidates are added to.  Returns the verdict, the features (measured, base and
     each candidate, per half), the fits and one spectrum per terrain for the report."""
-    from skidsteer.diagnosis.verdict import verdict
-
     prepared = []
     for name, setup, rows in terrains:
         lines = found_lines(rows)

@@ -66,9 +66,10 @@ TREAD_LATERAL_RATIO = Parameter(
            "it) to 1.5; value: 1, isotropic, as the thesis takes its lateral pulls (Sec. "
            "3.3) for both directions")
 MU_STATIC = Parameter(
-    "mu_static", 0.3, 1.2, 0.86, log=False,
-    source="assumed: rubber tread on hard ground, 0.3 (polished, dusty) to 1.2 (rough, "
-           "clean); value: the model's floor's (Sec. 3.3's 0.86 by default)")
+    "mu_static", 0.05, 1.2, 0.86, log=True,
+    source="assumed: rubber tread on any rigid ground, 0.05 (wet ice) to 1.2 (rough, "
+           "clean); log-uniform, a level's error being a factor; value: the model's "
+           "floor's (Sec. 3.3's 0.86 by default)")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -68,11 +68,11 @@ def segment_rows(runs, track_m: float) -> list[dict]:
 
 
 def _segment_current(run, segment) -> float | None:
-    w = run.wheels
-    if w.current_a is None:
-        return None
-    window = settled_window(segment, w.time_s)
-    return float(np.mean(w.current_a[window])) if window.any() else None
+    """The mean motor current (both sides, A) over the segment's settled window, the
+    logged samples held between messages."""
+    window = settled_window(segment, run.time_s)
+    current = run.wheels.current_at(run.time_s[window])
+    return None if current is None or not window.any() else float(np.mean(current))
 
 
 def add_simulated(rows: list[dict], runs, simulated, track_m: float, key: str,
@@ -222,6 +222,13 @@ def diagnose_terrains(paths: Sequence, model: str = "husky_a200", progress: bool
                     r["accel_rms_m_s2"] = v["rms_m_s2"]
     if leave_one_out and named and len(cases) >= 2:
         result["leave_one_terrain_out"] = leave_one_terrain_out(named, cases, evaluate, base)
+    result["models"] = {  # what simulated each row's yaw_rate_KEY_deg_s and chi_KEY
+        "base": {"robot": str(model), "timestep_s": identify.MOTION_TIMESTEP_S,
+                 "tire": dict(identify.MOTION_TIRE), "parameters": {}},
+        "extended": None if named is None else {
+            "robot": str(model), "timestep_s": identify.MOTION_TIMESTEP_S,
+            "tire": {**identify.MOTION_TIRE, **named.settings},
+            "parameters": {"robot": named.robot, "terrain": named.terrain}}}
     result["simulations"] = evaluate.simulations
     result["wall_time_s"] = round(time.perf_counter() - started, 1)
     result["_named"] = named

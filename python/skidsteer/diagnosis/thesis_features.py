@@ -2,7 +2,7 @@
 reports.analysis summarises them): each decider takes the runs it is decided on and a
 floor and returns (value, reproduced, evidence), or None when there are no runs to decide
 it on.  Which feature uses which decider, its source and thresholds:
-reports/thesis_measurements.toml."""
+data/thesis_measurements.toml."""
 
 from __future__ import annotations
 
@@ -10,7 +10,11 @@ import numpy as np
 from scipy import stats
 
 from skidsteer.diagnosis.thesis_targets import MEASURED
-from skidsteer.reports.markdown import fmt as _fmt
+
+
+def _fmt(x) -> str:
+    """A fraction for a feature's description; "n/a" for None and non-finite."""
+    return "n/a" if x is None or not np.isfinite(x) else format(x, ".3g")
 
 # Sec. 3.2 (each threshold's reason is in the measurements file)
 LOW_HZ = MEASURED.threshold("low_hz")

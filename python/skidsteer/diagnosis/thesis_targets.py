@@ -1,11 +1,11 @@
 """The thesis's measured targets and whether a model meets them: the free responses
 against Table 5.2 and the pulls against Sec. 3.3 (`skidsteer reproduce`'s "met" or
-"missed").  The numbers and their sources live in reports/thesis_measurements.toml;
+"missed").  The numbers and their sources live in data/thesis_measurements.toml;
 these names are views of it."""
 
 from __future__ import annotations
 
-from skidsteer.reports import thesis_measurements
+from skidsteer.data import thesis_measurements
 
 MEASURED = thesis_measurements.load()
 TABLE_5_2 = {axis: {k: MEASURED.free_response[axis][k] for k in ("peak_hz", "std_hz",

@@ -45,7 +45,9 @@ from skidsteer.simulation.sensor_chain import SensorChain
 
 
 class _Progress:
-    """A tqdm bar that several threads (fits on a cluster) can advance."""
+    """A tqdm bar that several threads (fits on a cluster) can advance.  Its total is a
+    plan (diagnose.simulations_planned: searches often stop early); a run past it raises
+    it, and the finished bar's total is what ran."""
 
     def __init__(self, total: int, enabled: bool, what: str):
         self.bar = tqdm(total=total, unit="run", desc=what, file=sys.stderr,
@@ -54,9 +56,14 @@ class _Progress:
 
     def __call__(self, n: int) -> None:
         with self.lock:
+            if self.bar.total is not None and self.bar.n + n > self.bar.total:
+                self.bar.total = self.bar.n + n
             self.bar.update(n)
 
     def close(self) -> None:
+        with self.lock:
+            self.bar.total = self.bar.n
+            self.bar.refresh()
         self.bar.close()
 
 

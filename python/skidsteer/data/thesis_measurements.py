@@ -104,7 +104,7 @@ class Measurements:
 
 
 def default_path() -> Path:
-    return Path(str(importlib.resources.files("skidsteer.reports") / FILE_NAME))
+    return Path(str(importlib.resources.files("skidsteer.data") / FILE_NAME))
 
 
 @lru_cache(maxsize=None)
