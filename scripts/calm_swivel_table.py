@@ -1,11 +1,11 @@
 """The calm-swivel table: the soft start against the thesis's feed-forward, per floor and
 omega, at the same mean yaw rate (skidsteer.tasks.calm_swivel).
 
-    python scripts/calm_swivel_table.py [--out docs/calm_swivel] [--readme README.md]
+    python scripts/calm_swivel_table.py [--out docs/calm_swivel] [--readme FILE]
 
-Writes OUT/results.json and OUT/table.md, and the table into README.md between
-<!-- calm-swivel-table --> and <!-- /calm-swivel-table -->.  24 runs of 20 s:
-about a minute on 2 cores.
+Writes OUT/results.json and OUT/table.md, and the table into FILE (default
+docs/calm_swivel/README.md) between <!-- calm-swivel-table --> and
+<!-- /calm-swivel-table -->.  24 runs of 20 s: about a minute on 2 cores.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ START, END = "<!-- calm-swivel-table -->", "<!-- /calm-swivel-table -->"
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", default=str(REPO / "docs/calm_swivel"))
-    parser.add_argument("--readme", default=str(REPO / "README.md"))
+    parser.add_argument("--readme", default=str(REPO / "docs/calm_swivel/README.md"))
     args = parser.parse_args()
     started = time.time()
     rows = calm_swivel.compare_controllers()

@@ -4,9 +4,10 @@
 
 - README.md, between <!-- reproduction-table --> and <!-- /reproduction-table -->:
   the reproduction summary of docs/reproduction/results.json;
-- README.md, between <!-- fresh-draws --> and <!-- /fresh-draws -->: diagnose's rates
-  on the generalisation benchmark's fresh draws and the ceiling's (docs/diagnose-*.jsonl,
-  judged by the verdict rules as they are now; --fresh-draws-only writes this one alone);
+- docs/diagnose.md, between <!-- fresh-draws --> and <!-- /fresh-draws -->: diagnose's
+  rates on the generalisation benchmark's fresh draws and the ceiling's
+  (docs/diagnose-*.jsonl, judged by the verdict rules as they are now;
+  --fresh-draws-only writes this one alone);
 - plugin/tire/README.md, between <!-- attributes-table --> and its end marker, and
   <!-- floors-table -->: the tire plugin's attributes and floors, from the plugin's
   own contract (skidsteer.robot.tire; tests/test_repository.py checks they match).
@@ -28,8 +29,9 @@ from skidsteer.robot import tire
 REPO = Path(__file__).resolve().parents[1]
 
 PLUGIN_README = REPO / "plugin" / "tire" / "README.md"
-# the README's fresh draws: from the first drawn after the held-out errors became
-# medians over 5 starts
+DIAGNOSE_DOC = REPO / "docs" / "diagnose.md"  # holds the fresh-draws table
+# the fresh-draws table's first row: from the first draw made after the held-out errors
+# became medians over 5 starts
 FRESH_FROM = 1080
 MARKERS = {
     "reproduction": ("<!-- reproduction-table -->", "<!-- /reproduction-table -->"),
@@ -47,13 +49,13 @@ def plugin_tables() -> dict[str, str]:
 def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.jsonl",
                       rows_of_ceiling: Path = REPO / "docs" / "diagnose-ceiling.jsonl",
                       draws_from: int = FRESH_FROM) -> str:
-    """The README's table of diagnose on fresh draws: the draws from draws_from on and the
-    whole table, each as the two benchmarks' summaries count them."""
+    """docs/diagnose.md's table of diagnose on fresh draws: the draws from draws_from on
+    and the whole table, each as the two benchmarks' summaries count them."""
     newest = benchmark_rows.newest_rows(results)
     truths = list(benchmark_rows.newest_rows(rows_of_ceiling).values())
     verdicts = [benchmark_rows.judged(r, newest[r["case"]]) for r in truths]
 
-    def rate(k: int, n: int) -> str:  # the README writes "85 %"
+    def rate(k: int, n: int) -> str:  # the table writes "85 %"
         return benchmark_rows.fraction(k, n).replace("%)", " %)")
 
     def line(label: str, rows: list[dict], which: list[int]) -> list[str]:
@@ -95,10 +97,10 @@ def main() -> None:
     parser.add_argument("--plugin-only", action="store_true",
                         help="only the plugin README's tables (no results.json needed)")
     parser.add_argument("--fresh-draws-only", action="store_true",
-                        help="only the README's table of diagnose on fresh draws")
+                        help="only docs/diagnose.md's table of diagnose on fresh draws")
     args = parser.parse_args()
     if not args.plugin_only:
-        write_between_markers(Path(args.readme), *MARKERS["fresh-draws"], fresh_draws_table())
+        write_between_markers(DIAGNOSE_DOC, *MARKERS["fresh-draws"], fresh_draws_table())
     if args.fresh_draws_only:
         return
     for name, body in plugin_tables().items():

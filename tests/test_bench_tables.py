@@ -58,13 +58,13 @@ def test_the_committed_benchmark_table_is_its_rows(name, tmp_path, capsys):
         "its first paragraph gives")
 
 
-def test_the_readme_fresh_draw_table_is_the_committed_rows():
-    """The README's rates on fresh draws are the two benchmarks' rows as the rules judge
-    them now (a rule change that moves a row moves the README too)."""
-    shown = update_readme_tables.between_markers((REPO / "README.md").read_text(),
-                                                 "fresh-draws")
+def test_the_fresh_draw_table_is_the_committed_rows():
+    """docs/diagnose.md's rates on fresh draws are the two benchmarks' rows as the rules
+    judge them now (a rule change that moves a row moves the table too)."""
+    shown = update_readme_tables.between_markers(
+        update_readme_tables.DIAGNOSE_DOC.read_text(), "fresh-draws")
     assert shown == update_readme_tables.fresh_draws_table(), (
-        "README.md's fresh-draw table is not its rows'; regenerate it with "
+        "docs/diagnose.md's fresh-draw table is not its rows'; regenerate it with "
         "python scripts/update_readme_tables.py --fresh-draws-only")
 
 
@@ -121,9 +121,10 @@ def test_recovery_counts_fitted_parameters_of_the_hidden_cause_only():
 
 
 def test_a_wrong_name_is_a_named_cause_not_a_null_said_unexplained():
-    """The README's "wrong names" counts causes named wrong; a null said "unexplained"
-    (issue 21's draw 1211: the base model at 2.003 against the 2.0 limit) is a wrong
-    outcome that names nothing, counted in the nulls' column instead."""
+    """The fresh-draws table's "wrong names" (docs/diagnose.md) counts causes named wrong;
+    a null said "unexplained" (issue 21's draw 1211: the base model at 2.003 against the
+    2.0 limit) is a wrong outcome that names nothing, counted in the nulls' column
+    instead."""
     with (DOCS / "diagnose-generalisation.jsonl").open() as f:
         rows = {r["case"]: r for r in map(json.loads, f)}
     right = next(r for r in rows.values() if row_outcome(r) == "right"
