@@ -218,9 +218,14 @@ def verdict(base_error: float, base_held: float, fits: Sequence[FitLike], noise:
             "establish it")
     contending = rivals(fits[1:], base_train, n_train)
     if contending and not separated(base_held, best, contending):
+        rival = contending[0]
         return "unexplained", None, (
-            f"{best.cause} and {contending[0].cause} explain the data about equally well "
-            f"(held-out {best.held_out_error:.2f} vs {contending[0].held_out_error:.2f})")
+            f"{best.cause} and {rival.cause} explain the data about equally well by the "
+            f"separation rule (held-out {best.held_out_error:.2f} vs "
+            f"{rival.held_out_error:.2f}: scores {rival.score - best.score:.3g} apart where "
+            f"a quarter of the base model's excess, "
+            f"{SEPARATION * (base_held ** 2 - best.score):.3g}, tells two fits apart, and "
+            f"neither alone within {Z_CONSISTENT})")
     rival = preferred_in_training(best, fits[1:], n_train)
     if rival is not None:
         return "unexplained", None, (

@@ -64,6 +64,8 @@ def write_figures(result: dict, folder: Path) -> list[Path]:
             y = [np.nan if v is None else v for v in y]
             ax.plot(x, y, style, ms=4, label=key)
         ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(plt.FormatStrFormatter("%.1f"))
+        ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.1f"))
         ax.set_title(f"{name} ({'deformable' if t['ground']['deformable'] else 'rigid'})")
         ax.set_xlabel("turning segment (run order)")
         ax.set_ylabel("chi = predicted / measured yaw rate")
