@@ -231,29 +231,10 @@ def test_the_base_models_own_recordings_name_nothing(tmp_path):
 
 
 @pytest.mark.slow
-def test_diagnose_runs_on_the_real_excerpt_from_the_command_line(tmp_path, capsys):
-    # the excerpt's two flooring runs hold no straight driving, so there is no rigid
-    # rolling current to hold sandy loam's against: taken as rigid, and said why
-    for name in ("FLOORING", "SANDY_LOAM"):
-        shutil.copytree(EXCERPT / name, tmp_path / "data" / name)
-    assert main(["diagnose", str(tmp_path / "data"), "--model", "husky_a200", "--out",
-                 str(tmp_path / "out"), "--no-progress", "--no-leave-one-out"]) == 0
-    result = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
-    sandy = result["terrains"]["SANDY_LOAM"]
-    assert sandy["floor"] is None and not sandy["ground"]["deformable"]
-    assert "for want of evidence" in " ".join(sandy["ground"]["evidence"])
-    assert result["motion"]["verdict"] in ("explained", "partly-explained", "unexplained")
-    out = capsys.readouterr().out
-    assert "SANDY_LOAM: rigid" in out and "identified robot:" in out
-    assert (tmp_path / "out" / "report.md").is_file()
-    assert (tmp_path / "out" / "figures" / "chi_per_segment.png").is_file()
-
-
-@pytest.mark.slow
-def test_a_terrain_whose_straight_driving_takes_twice_the_current_is_deformable(tmp_path):
+def test_sandy_loam_beside_a_flooring_is_deformable_from_the_command_line(tmp_path, capsys):
     # the real sandy loam (4.16 A driving straight in the excerpt) beside a flooring the
     # model drove at the current the real flooring draws driving straight (1.9 A):
-    # deformable, named why
+    # deformable, named why, moving no robot parameter
     shutil.copytree(EXCERPT / "SANDY_LOAM", tmp_path / "data" / "SANDY_LOAM")
     m = _husky("flooring")
     for i, pieces in enumerate(SCHEDULES["FLOORING"]):
@@ -263,13 +244,27 @@ def test_a_terrain_whose_straight_driving_takes_twice_the_current_is_deformable(
             wheels.time_s, wheels.left_mps, wheels.right_mps,
             np.full((len(wheels.time_s), 2), 1.9)))
         write_borealtc_run(tmp_path / "data" / "FLOORING", i, run)
-    result = diagnose_recordings([tmp_path / "data"], tmp_path / "out", progress=False,
-                                 leave_one_out=False, lines=False)
-    sandy = result["terrains"]["SANDY_LOAM"]["ground"]
-    assert sandy["deformable"] and sandy["rolling_current_ratio"] == pytest.approx(
-        4.16 / 1.9, rel=0.02)
-    assert "rolling resistance" in sandy["evidence"][0]
-    assert "SANDY_LOAM" not in result["motion"]["features"]  # it moves no robot parameter
+    assert main(["diagnose", str(tmp_path / "data"), "--model", "husky_a200", "--out",
+                 str(tmp_path / "out"), "--no-progress", "--no-leave-one-out"]) == 0
+    result = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    sandy = result["terrains"]["SANDY_LOAM"]
+    assert sandy["floor"] is None and sandy["ground"]["deformable"]
+    assert sandy["ground"]["rolling_current_ratio"] == pytest.approx(4.16 / 1.9, rel=0.02)
+    assert "rolling resistance" in sandy["ground"]["evidence"][0]
+    assert "SANDY_LOAM" not in result["motion"]["features"]
+    out = capsys.readouterr().out
+    assert "SANDY_LOAM: deformable" in out and "identified robot:" in out
+    assert (tmp_path / "out" / "report.md").is_file()
+    assert (tmp_path / "out" / "figures" / "chi_per_segment.png").is_file()
+
+
+def test_a_terrain_without_a_rigid_reference_is_taken_as_rigid_and_said_so():
+    # the excerpt's two flooring runs hold no straight driving: no rigid rolling current
+    # to hold sandy loam's against
+    rows = [_row("straight", None, 4.16, left=0.24, right=0.24)]
+    judged = ground.judge(rows, 3.6, None)
+    assert not judged["deformable"]
+    assert "for want of evidence" in judged["evidence"][0]
 
 
 @pytest.mark.parametrize("option", [["--model-spread"], ["--search-starts", "3"],

@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 from skidsteer.data.terrains import read_terrain, terrain_paths
 from skidsteer.diagnosis import ground, identify, lines, motion
-from skidsteer.diagnosis.verdict import verdict
+from skidsteer.diagnosis.verdict import Z_CONSISTENT, verdict
 from skidsteer.experiments.replay import replay
 from skidsteer.features.segments import (Segment, lateral_acceleration, run_segments,
                                          run_yaw_features, segment_vibration, settled_window)
@@ -179,10 +179,12 @@ def diagnose_terrains(paths: Sequence, model: str = "husky_a200", progress: bool
     base_fit = None
     if cases:
         base_fit = identify.base_fit(cases, evaluate, base)
-        bar = tqdm(desc="fits", unit="fit", disable=not progress)
-        fits = identify.select(cases, evaluate, base, allowed, progress=lambda f: bar.update(1),
-                               implausible=lambda f: implausible(f, cases))
-        bar.close()
+        if base_error(base_fit) > Z_CONSISTENT:  # else no cause is needed: none is fitted
+            bar = tqdm(desc="fits", unit="fit", disable=not progress)
+            fits = identify.select(cases, evaluate, base, allowed,
+                                   progress=lambda f: bar.update(1),
+                                   implausible=lambda f: implausible(f, cases))
+            bar.close()
         verdict_text = judge_fits(base_fit, fits, cases)
     result["motion"] = motion_summary(base_fit, fits, verdict_text, cases, evaluate)
     named = verdict_text[1]
@@ -265,8 +267,7 @@ def judge_fits(base_fit, fits, cases) -> tuple[str, object, str]:
     n_train = max(1, sum(len(c.measured["fit"]) for c in cases))
     noise = identify.rms(min(1.0, (f["stderr"] or 0) / identify.sigma(f))
                          for c in cases for f in c.measured[None].values())
-    base_all = identify.rms(v for half in base_fit.z.values() for t in half.values()
-                            for v in t.values())
+    base_all = base_error(base_fit)
     plausible = sorted((f for f in fits if not f.implausible), key=lambda f: f.score)
     for f in plausible:
         f.removed = gain(base_fit.held_out_error, f.held_out_error, noise)
@@ -277,6 +278,12 @@ def judge_fits(base_fit, fits, cases) -> tuple[str, object, str]:
     return verdict(base_all, base_fit.held_out_error, plausible, noise,
                    base_train=base_fit.train_error, n_train=n_train,
                    scale="the segments' scatter")
+
+
+def base_error(base_fit) -> float:
+    """The base model's RMS z over every feature of both halves."""
+    return identify.rms(v for half in base_fit.z.values() for t in half.values()
+                        for v in t.values())
 
 
 def gain(base_held: float, held: float, noise: float) -> float:
