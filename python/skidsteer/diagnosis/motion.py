@@ -29,6 +29,7 @@ from typing import Mapping
 
 import mujoco
 
+from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.causes import NotApplicable, Parameter
 from skidsteer.robot import roles, tire
 
@@ -50,10 +51,7 @@ COM_Y = Parameter(
     source="assumed: the centre of mass anywhere within +-0.1 m of the centre line (a "
            "payload or battery off-centre; the Husky URDF's -0.085 m inside); value: the "
            "model's own (set from its MJCF)")
-LAMBDA_MAX = Parameter(
-    "lambda_max", 0.003, 1.0, 0.1, log=True,
-    source="eq. 4.12a's saturation slip; Appendix C ran 1 to 1e-4; the prior stops at 3e-3 "
-           "(assumed: stiffer than any rubber tread); value: the model's own")
+LAMBDA_MAX = causes.get("slip_lambda_max").main  # the accelerometer cause's prior
 LATERAL_RATIO = Parameter(
     "lateral_friction_ratio", 0.5, 2.0, 1.0, log=True,
     source="assumed: a terrain's sliding friction across the tread over along it, from "
