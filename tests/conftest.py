@@ -16,6 +16,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "scripts"))
 
 from installed_copy import stale_files  # noqa: E402  (tests/, on sys.path as conftest's folder)
+# the suite's slow marks and worker groups: a hook, which pytest finds in this module
+from scheduling import pytest_collection_modifyitems  # noqa: E402, F401
 
 # Table 5.1: contact points from the CoM, wheels numbered as the thesis
 TABLE_5_1 = np.array([
@@ -65,3 +67,4 @@ def pytest_sessionstart(session):
             f"{len(stale)} file(s) differ ({shown}); reinstall with "
             f"scripts/install.sh --test, or install editable while developing "
             f"(pip install -e '.[test,ray]')")
+

@@ -1,16 +1,16 @@
-"""The hidden-effect diagnoses that tests/test_diagnose.py and
-tests/test_diagnose_hidden.py check: a "measured" dataset from a truth model (our
-model plus one effect, seeded) through the sensor chain into LabVIEW xlsx files,
-diagnosed against its rivals (the causes the generalisation benchmark most often
-confuses it with; candidates_for), the null with every candidate.
+"""The hidden-effect diagnoses that tests/test_diagnose.py checks: a "measured"
+dataset from a truth model (our model plus one effect, seeded) through the sensor
+chain into LabVIEW xlsx files, diagnosed against its rivals (the causes the
+generalisation benchmark most often confuses it with; candidates_for), the null
+with every candidate.
 
-The two modules split the effects so that pytest's two workers (scripts/test.sh,
---dist loadscope: one module per worker) share the diagnoses, the slow part of the
-suite; every diagnosis of a test session reads and writes one simulation cache
-(shared_cache_dir), also across the workers: the candidates' grids are the same
-models whatever the data, and a stored simulation gives the numbers a new one would
-(the kill-and-resume test checks that a resumed diagnosis equals an uninterrupted
-one; entries are written atomically, so two workers may store one at once).
+pytest's two workers (scripts/test.sh, --dist loadgroup) share the diagnoses, the
+slow part of the suite, one effect at a time; every diagnosis of a test session
+reads and writes one simulation cache (shared_cache_dir), also across the workers:
+the candidates' grids are the same models whatever the data, and a stored
+simulation gives the numbers a new one would (the kill-and-resume test checks that
+a resumed diagnosis equals an uninterrupted one; entries are written atomically,
+so two workers may store one at once).
 """
 
 from __future__ import annotations
@@ -33,12 +33,6 @@ DURATION_S = 8.0
 # 14 s holds both with a second to spare and scores the same wheel-order features as
 # the thesis's 20 s (Sec. 3.2).  The other effects show in 8 s.
 RECORD_S = {"wheel_eccentricity": 14.0}
-# the hidden effects diagnosed in tests/test_diagnose_hidden.py; the others in
-# tests/test_diagnose.py, with the outside effect, the null and the output tests
-# (measured under CI=true at 4cf74b6: 89-170 s for each 8 s effect, the outside
-# effect 146 s; the run-out on 14 s records 228 s alone): about half of the
-# diagnoses' time each, so the two workers finish together
-SECOND_MODULE = ("mast_compliance", "sensor_mount", "slip_lambda_max", "wheel_eccentricity")
 # Each hidden cause is diagnosed against its RIVALS, the causes it is most often
 # confused with, which its naming has to beat; an effect outside every candidate
 # against the OUTSIDE_RIVALS causes most often ranked first on its draws, the ones it
@@ -98,7 +92,8 @@ def shared_cache_dir(tmp_path_factory):
 
 
 def hidden_diagnoses(tmp_path_factory):
-    """effect -> (truth, diagnosis, root), each computed once per module."""
+    """effect -> (truth, diagnosis, root), each computed once per module (per worker:
+    an effect's tests run on one)."""
     cache = {}
     shared = shared_cache_dir(tmp_path_factory)
 

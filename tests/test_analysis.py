@@ -185,6 +185,7 @@ def _is_png(path):
     return path.stat().st_size > 1000 and image.ndim == 3 and min(image.shape[:2]) > 100
 
 
+@pytest.mark.slow
 def test_figures(tmp_path, swivel):
     from skidsteer.reports import figures
 
@@ -205,6 +206,7 @@ def test_figures(tmp_path, swivel):
                                                           "run.png"]  # no .part left
 
 
+@pytest.mark.slow
 def test_analyze_file_and_paths(tmp_path):
     from skidsteer.data import write_run
 

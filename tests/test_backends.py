@@ -92,6 +92,7 @@ def _files(directory):
     return {p.name: p.read_bytes() for p in sorted(directory.iterdir())}
 
 
+@pytest.mark.slow  # 29 s beside the other worker (7 s alone)
 def test_a_sweep_on_ray_writes_the_same_files_as_a_local_one(ray_backend, tmp_path):
     # two floors (two models), two omegas, perturbed repeat trials (seeded)
     runs = sweep.plan([30.0, 64.0], ["concrete", "carpet"], ["extended"], trials=2,
@@ -152,6 +153,7 @@ def slip_dataset(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_a_diagnosis_on_ray_gives_the_local_numbers(ray_backend, slip_dataset):
     from skidsteer.reports.diagnosis import diagnose
 

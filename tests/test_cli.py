@@ -52,6 +52,7 @@ def test_tire_loads_json(capsys):
     assert len(result["normal_forces_N"]) == 4
 
 
+@pytest.mark.slow
 def test_free_response_json(capsys):
     assert main(["free-response", "--axis", "pitch", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
@@ -95,6 +96,7 @@ def test_sweep_then_analyze_a_simulated_dataset(tmp_path, capsys):
     assert mtimes == {p.name: p.stat().st_mtime_ns for p in data.glob("*.xlsx")}
 
 
+@pytest.mark.slow
 def test_a_killed_sweep_looks_unfinished_and_its_rerun_equals_an_uninterrupted_one(tmp_path):
     # issue 7: kill a sweep midway (SIGKILL: no cleanup runs), rerun the same
     # command, and get the files an uninterrupted sweep writes, byte for byte

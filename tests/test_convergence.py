@@ -10,6 +10,7 @@ import pytest
 
 from skidsteer.experiments import FREE_RESPONSE_TIMESTEP_S, free_response
 
+pytestmark = pytest.mark.slow  # each a free response at 5e-6 s or 1e-5 s: 17-52 s here
 DEFAULT_DT = 1e-4  # the models' step, models/pioneer3at/parts/setup.xml
 # issue 6's criteria: frequencies within 1 Hz, amplitudes within 10 %; the decay rate,
 # the free responses' other Table 5.2 number, is held to the same 10 %

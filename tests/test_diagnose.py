@@ -7,9 +7,9 @@ require diagnose to find what was hidden.  They are the slow part of the suite
 wheel eccentricity's longer records more);
 the records are 8 s, the shortest the band features allow (3 s start-up window,
 4 s onwards steady window with 4096-sample Welch segments), except for wheel
-eccentricity, whose once-per-revolution line needs 14 s (RECORD_S).  Half of the
-effects are checked in tests/test_diagnose_hidden.py, so that the two pytest
-workers share the work (tests/hidden_effects.py).
+eccentricity, whose once-per-revolution line needs 14 s (RECORD_S).  Each effect's
+diagnosis is one unit of work for pytest's workers (its own xdist_group), so that
+scripts/test.sh's two workers share them (tests/hidden_effects.py).
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ from skidsteer.robot import Setup, load_model, roles_of
 from skidsteer.simulation.run import FULLPHYSICS, settle, trial_start
 from skidsteer.simulation.sensor_chain import SensorChain
 
-from hidden_effects import (DURATION_S, SECOND_MODULE, SEED, check_named, check_not_wrong,
-                            hidden_diagnoses, rivals)
+from hidden_effects import (DURATION_S, SEED, check_named, check_not_wrong, hidden_diagnoses,
+                            rivals)
 
 NAMED = ("mast_compliance", "loose_payload", "ground_roughness", "wheel_eccentricity",
          "slip_lambda_max", "friction_levels", "sensor_mount")
@@ -684,6 +684,7 @@ def test_simulated_starts_are_drawn_kept_apart_and_stored_apart(tmp_path):
         simulate_groups([(factory, [group])], 8.0, starts=[0, 1])
 
 
+@pytest.mark.slow
 def test_the_search_reads_the_median_over_its_starts(tmp_path, monkeypatch):
     # diagnose --search-starts N: a fit's training error is the median over starts
     # 0..N-1 (as the held-out error is over STARTS), the simulation it keeps is start 0's;
@@ -1010,6 +1011,7 @@ def test_trial_spread_counts_a_feature_only_where_it_is_scored():
     assert comp.observed.trial_spread()[0] > 0.2
 
 
+@pytest.mark.slow
 def test_a_hold_out_the_dataset_lacks_is_a_clear_error_before_any_simulation(tmp_path,
                                                                              capsys):
     from skidsteer.cli import main
@@ -1065,30 +1067,46 @@ def test_the_rivals_are_the_benchmarks_most_frequent_runners_up(tmp_path):
         rivals("slip_lambda_max", bench)
 
 
+def _one_diagnosis(effect):
+    """The tests of one hidden effect run on one pytest-xdist worker (scripts/test.sh's
+    --dist loadgroup), where its diagnosis is computed once; the effects spread over
+    the workers."""
+    return pytest.mark.xdist_group(f"hidden-{effect or 'nothing'}")
+
+
+@_one_diagnosis(None)
+@pytest.mark.slow
 def test_nothing_hidden_gives_no_discrepancy(hidden):
     _, result, _ = hidden(None)
     assert result["verdict"] == "no-discrepancy", result["reason"]
     assert result["cause"] is None
 
 
-@pytest.mark.parametrize("effect", [e for e in NAMED if e not in SECOND_MODULE])
+HIDDEN = [pytest.param(effect, marks=_one_diagnosis(effect)) for effect in NAMED]
+
+
+@pytest.mark.parametrize("effect", HIDDEN)
+@pytest.mark.slow
 def test_diagnose_names_the_hidden_cause(hidden, effect):
     check_named(*hidden(effect)[:2], effect)
 
 
-@pytest.mark.parametrize("effect", [e for e in NAMED if e not in SECOND_MODULE])
+@pytest.mark.parametrize("effect", HIDDEN)
+@pytest.mark.slow
 def test_diagnose_never_names_a_wrong_cause(hidden, effect):
     check_not_wrong(hidden(effect)[1], effect)
 
 
-@pytest.mark.parametrize("effect", sorted(OUTSIDE_EFFECTS))
+@pytest.mark.parametrize("effect", [pytest.param(effect, marks=_one_diagnosis(effect))
+                                    for effect in sorted(OUTSIDE_EFFECTS)])
+@pytest.mark.slow
 def test_an_effect_outside_the_candidates_is_unexplained(hidden, effect):
     _, result, _ = hidden(effect)
     assert result["verdict"] == "unexplained", result["reason"]
     assert result["cause"] is None
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="module")  # a diagnosis (146 s here): the tests that use it are slow
 def written(tmp_path_factory):
     """(dataset, out dir, result) of one uninterrupted diagnose with outputs: a hidden
     slip parameter, one candidate, a broken run file in the dataset."""
@@ -1103,6 +1121,7 @@ def written(tmp_path_factory):
     return data, out, result
 
 
+@pytest.mark.slow
 def test_diagnose_writes_its_outputs(written):
     data, out, result = written
     saved = json.loads((out / "diagnosis.json").read_text())
@@ -1148,6 +1167,7 @@ def test_diagnose_writes_its_outputs(written):
     assert saved["unprobed"] == saved["most_likely"]["unprobed"] == named["unprobed"]
 
 
+@pytest.mark.slow
 def test_the_progress_plan_is_the_count_run_but_for_brents_steps(written):
     # simulations_planned is a plan (a progress bar's total), not a bound: what it cannot
     # know is how many steps each Brent search takes (it plans REFINE_STEPS_PLANNED).  A
@@ -1193,6 +1213,7 @@ def _comparable(diagnosis_json: dict) -> dict:
     return {k: v for k, v in diagnosis_json.items() if k not in ("wall_time_s", "simulations")}
 
 
+@pytest.mark.slow
 def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_result(
         written, tmp_path):
     # issue 7: SIGKILL a diagnose midway (no cleanup runs); its directory must not
@@ -1245,6 +1266,7 @@ def test_a_killed_diagnose_looks_unfinished_and_its_rerun_resumes_to_the_same_re
         assert (out / name).read_bytes() == (whole / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_compare_writes_its_result_last_and_leaves_no_marker(written, tmp_path):
     # compare keeps diagnose's rule: comparison.json present means the outputs are whole
     from skidsteer.data import INCOMPLETE_MARKER

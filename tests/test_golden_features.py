@@ -69,7 +69,7 @@ def data() -> dict:
     return data
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="module")  # 35 s of swivels: the test that uses it is slow
 def resimulated(data) -> dict[str, dict]:
     """robust_features of every case's reference run (seed None), by case name."""
     cases = data["cases"]
@@ -115,6 +115,7 @@ def test_golden_tolerances_are_meaningful(data):
 
 
 @pytest.mark.parametrize("name", CASE_NAMES)
+@pytest.mark.slow
 def test_reference_run_matches_golden_features(name, data, resimulated):
     case = next(c for c in data["cases"] if c["name"] == name)
     now = resimulated[name]

@@ -197,6 +197,7 @@ def test_the_report_says_what_the_proposal_is_for():
     assert "Record `" not in "\n".join(_next_command_section(quiet, CONFIRM))
 
 
+@pytest.mark.slow
 def test_a_diagnosis_whose_held_out_runs_are_quiet_proposes_where_to_confirm_its_lead(
         tmp_path):
     # the floor's friction lowered at 15 and 60 deg/s and the base model itself at 30,

@@ -42,6 +42,7 @@ def test_bare_platform_loads_match_its_weight():
 
 
 @pytest.mark.parametrize("floor", skidsteer.FLOORS)
+@pytest.mark.slow
 def test_random_commands_for_60_s_stay_finite_without_warnings(floor):
     # acceptance: 60 s of random wheel commands up to the motors' limits on
     # each floor: no NaN, no MuJoCo warning

@@ -117,6 +117,7 @@ def place(m: mujoco.MjModel, d: mujoco.MjData, pose) -> None:
 
 @PROPERTIES
 @given(data=st.data())
+@pytest.mark.slow
 def test_random_command_sequences_stay_finite_warning_free_and_replay_bit_for_bit(data):
     m, config, integrator = data.draw(models())
     pose = data.draw(poses())
@@ -171,6 +172,7 @@ PASSIVITY_EXAMPLES = max(10, PROPERTY_EXAMPLES // 4)
 @given(seed=st.integers(0, 2**32 - 1),
        tire=st.sampled_from(["defaults", "coulomb", "combined"]),
        drop_m=st.floats(0.0, 0.1), tilt_deg=st.floats(0, 15), speed=st.floats(0.0, 1.0))
+@pytest.mark.slow
 def test_with_zero_commands_the_energy_never_grows(seed, tire, drop_m, tilt_deg, speed):
     rng = np.random.default_rng(seed)
     config = None if tire == "defaults" else random_config(

@@ -6,8 +6,10 @@ from __future__ import annotations
 import ast
 import importlib.metadata
 import re
+import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -120,6 +122,108 @@ def test_the_package_has_no_import_cycle():
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
 
 
+ARCHITECTURE = REPO / "docs" / "architecture.md"
+# A stage's line in the architecture diagram: its name first (after "+--> " for the
+# stages side by side), then its description two or more spaces on.
+STAGE_LINE = re.compile(r"^\s*(\+-->\s*)?([a-z_]+)\s{2,}\S")
+
+
+def _stated_stages(text: str, names: set[str]) -> list[set[str]]:
+    """The stages of the first diagram of docs/architecture.md, in order: a set per
+    level, the consecutive "+-->" lines side by side in one.  `names` are the
+    package's stage names; other words in the diagram (models, robot.toml) are not."""
+    match = re.search(r"```\n(.*?)```", text, flags=re.S)
+    assert match, f"{ARCHITECTURE}: no diagram (a ``` block) of the stages"
+    levels: list[set[str]] = []
+    side_by_side = False
+    for line in match.group(1).splitlines():
+        found = STAGE_LINE.match(line)
+        if not found or found.group(2) not in names:
+            continue
+        branch = found.group(1) is not None
+        if branch and side_by_side:
+            levels[-1].add(found.group(2))
+        else:
+            levels.append({found.group(2)})
+        side_by_side = branch
+    return levels
+
+
+def _stage_of(module: str) -> str:
+    """skidsteer.<stage>[.module...] -> stage; a module of the package root -> ""."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _stage_violations(sources: dict[str, tuple[str, str]],
+                      levels: list[set[str]]) -> list[str]:
+    """Each module's imports of the package (at module level or in functions) that
+    are not of its own stage or of a stage stated above it.  `sources`: module ->
+    (its file, its source).  The root's modules (skidsteer/__init__.py, version.py),
+    which Python runs before any stage, may import the first level only, and any
+    stage may import them."""
+    level = {stage: i for i, stages in enumerate(levels) for stage in stages}
+
+    def stage_of(module):  # "" for the root's modules
+        return _stage_of(module) if _stage_of(module) in level else ""
+
+    found = {}  # one entry per import statement and module it names, in order
+    for module, (where, source) in sorted(sources.items()):
+        stage = stage_of(module)
+        allowed = set().union(*levels[:level[stage]], {stage}) if stage else levels[0]
+        tree = ast.parse(source, filename=where)
+        for top_level in (True, False):
+            for name, node in _imports(tree, module, sources, top_level):
+                target = _target(name, sources)
+                imported = stage_of(target) if target else ""
+                if imported and imported not in allowed:
+                    found[f"{where}:{node.lineno}: {stage or 'root'} imports {target} "
+                          f"({imported})"] = None
+    return list(found)
+
+
+def test_the_stages_import_only_the_stages_stated_above_them():
+    modules = _modules()
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
+    text = ARCHITECTURE.read_text()
+    levels = _stated_stages(text, packages | {_stage_of(m) for m in modules})
+    stated = set().union(*levels)
+    assert {"robot", "reports", "cli"} <= stated, (
+        f"{ARCHITECTURE}: read the stages {levels} from its diagram; the reading is wrong")
+    unplaced = sorted(packages - stated)
+    assert not unplaced, (f"{ARCHITECTURE}'s diagram does not place the package(s) "
+                          f"{unplaced}: add each as a stage where its imports put it")
+    found = _stage_violations({m: (p.relative_to(REPO).as_posix(), p.read_text())
+                               for m, p in modules.items()}, levels)
+    order = " -> ".join(", ".join(sorted(s)) for s in levels)
+    assert not found, (f"imports against the stages' order of {ARCHITECTURE.name} ({order}): "
+                       + "; ".join(found))
+
+
+def test_the_stage_check_reads_side_by_side_stages_and_names_a_later_import():
+    """The reader of the diagram and the check on a made-up package: a stage that
+    imports a later one and a stage beside it are named; its own and earlier are not."""
+    diagram = ("```\n models/<robot>/   plugin/tire/ (C)\n robot.toml + MJCF  x\n"
+               "  robot        a\n        |\n        v\n  data         b\n"
+               "        +--> left      c\n        +--> right     d\n"
+               "        |\n  cli          e\n```\n")
+    levels = _stated_stages(diagram, {"robot", "data", "left", "right", "cli"})
+    assert levels == [{"robot"}, {"data"}, {"left", "right"}, {"cli"}]
+    modules = {"skidsteer": "import skidsteer.robot.a\n",
+               "skidsteer.robot.a": "from skidsteer import version\n",
+               "skidsteer.version": "from skidsteer.data import b\n",
+               "skidsteer.data.b": "from skidsteer.robot import a\nfrom . import c\n",
+               "skidsteer.data.c": "def f():\n    from skidsteer.left import d\n",
+               "skidsteer.left.d": "from skidsteer.right import e\nimport skidsteer.data.b\n",
+               "skidsteer.right.e": "import skidsteer.cli\n",
+               "skidsteer.cli": "import skidsteer.left.d, skidsteer.right.e\n"}
+    found = _stage_violations({m: (m, source) for m, source in modules.items()}, levels)
+    assert sorted(found) == ["skidsteer.data.c:2: data imports skidsteer.left.d (left)",
+                             "skidsteer.left.d:1: left imports skidsteer.right.e (right)",
+                             "skidsteer.right.e:1: right imports skidsteer.cli (cli)",
+                             "skidsteer.version:1: root imports skidsteer.data.b (data)"]
+
+
 def test_imports_are_at_module_level_but_for_optional_dependencies():
     modules = _modules()
     found = []
@@ -201,3 +305,41 @@ def test_an_installed_copy_older_than_the_checkout_is_named_file_by_file(tmp_pat
     assert stale_files(installed, repo) == ["python/skidsteer/cli.py",
                                             "python/skidsteer/diagnosis/fit.py",
                                             "models/robot/robot.xml"]
+
+
+SHARED_FIXTURE_TESTS = """
+import os
+import pytest
+
+@pytest.fixture(scope="module")
+def shared():
+    with open("made.txt", "a") as made:
+        made.write(os.environ.get("PYTEST_XDIST_WORKER", "main") + "\\n")
+
+@pytest.mark.parametrize("i", range(6))
+def test_shares(shared, i):
+    pass
+
+@pytest.mark.parametrize("i", range(6))
+def test_alone(i):
+    pass
+"""
+
+
+def test_the_workers_compute_a_module_scoped_fixture_once(tmp_path):
+    """scripts/test.sh's two workers (--dist loadgroup) and tests/scheduling.py's groups
+    keep the tests that share a module-scoped fixture on one worker.  A pytest and
+    pytest-xdist that stop honouring the groups do so silently (pytest 9.2 with
+    pytest-xdist 3.8: pytest-dev/pytest-xdist#1386): the fixture is then made on each
+    worker."""
+    (tmp_path / "test_shared.py").write_text(SHARED_FIXTURE_TESTS)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(REPO / "tests"), os.environ.get("PYTHONPATH", "")])}
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                          "-p", "scheduling", "-n", "2", "--dist", "loadgroup",
+                          "--rootdir", str(tmp_path), "test_shared.py"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr
+    made = (tmp_path / "made.txt").read_text().split()
+    assert len(made) == 1, f"the module-scoped fixture was made on workers {made}"
+

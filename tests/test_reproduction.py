@@ -26,7 +26,7 @@ from skidsteer.robot import Setup
 MISSED = "issue 3 target missed (docs/reproduction/report.md); cause: "
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="module")  # 24 s of free responses: the tests that use it are slow
 def free_responses():
     return {axis: experiments.free_response(axis) for axis in ("roll", "pitch", "yaw")}
 
@@ -41,6 +41,7 @@ def _decay_factor(result, axis):
 
 
 @pytest.mark.parametrize("axis", ["pitch", "yaw"])
+@pytest.mark.slow
 def test_free_response_frequency_within_10_percent_of_table_5_2(free_responses, axis):
     assert _frequency_error(free_responses[axis], axis) <= FREQUENCY_TARGET
 
@@ -48,16 +49,19 @@ def test_free_response_frequency_within_10_percent_of_table_5_2(free_responses, 
 @pytest.mark.xfail(strict=True, reason=MISSED + "roll 6.66 Hz vs Table 5.2's 6.04 Hz, +10.2 % "
                    "(target 10 %), the same at 1e-5 s (the free responses' step), 5e-6 s "
                    "and 1e-4 s: " + CAUSES["free_response_roll"])
+@pytest.mark.slow
 def test_roll_frequency_within_10_percent_of_table_5_2(free_responses):
     assert _frequency_error(free_responses["roll"], "roll") <= FREQUENCY_TARGET
 
 
+@pytest.mark.slow
 def test_roll_frequency_miss_is_a_near_miss(free_responses):
     # the documented miss stays what the report says: above 10 %, below 12 %
     assert 0.10 < _frequency_error(free_responses["roll"], "roll") < 0.12
 
 
 @pytest.mark.parametrize("axis", ["roll", "pitch"])
+@pytest.mark.slow
 def test_free_response_decay_within_factor_1_6(free_responses, axis):
     assert _decay_factor(free_responses[axis], axis) <= DECAY_FACTOR_TARGET
 
@@ -67,10 +71,12 @@ def test_free_response_decay_within_factor_1_6(free_responses, axis):
                    "5e-6 s (2.79/s), so a narrow miss but not a step artefact (2.60/s "
                    "at 1e-4 s): "
                    + CAUSES["free_response_decay_yaw"])
+@pytest.mark.slow
 def test_yaw_decay_within_factor_1_6(free_responses):
     assert _decay_factor(free_responses["yaw"], "yaw") <= DECAY_FACTOR_TARGET
 
 
+@pytest.mark.slow
 def test_yaw_decay_miss_is_underdamping(free_responses):
     # the documented miss: yaw decays slower than measured (x1.61), from eq. 6.5's
     # D_x, D_y tuned on roll and pitch only; faster than measured would be another cause
@@ -153,6 +159,7 @@ def test_straight_line_reaches_the_commanded_speed():
     assert result["time_to_90_percent_s"] == pytest.approx(3.0, abs=0.1)
 
 
+@pytest.mark.slow
 def test_thesis_variant_differs_where_it_should():
     ours = experiments.free_response("roll")
     thesis = experiments.free_response("roll", Setup(build="extended", floor="concrete",

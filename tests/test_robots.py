@@ -95,6 +95,7 @@ def test_the_robot_swivels_the_commanded_way(mini):
     assert steady[0] < 0 < steady[1] and steady[2] < 0 < steady[3]
 
 
+@pytest.mark.slow
 def test_compare_runs_on_data_simulated_from_the_robot(mini, tmp_path):
     setup = Setup(robot=str(mini), floor="concrete")
     # 3 trials: the trials' spread needs 3 degrees of freedom (MIN_SPREAD_DOF)

@@ -2,9 +2,10 @@
 
 Importing the package registers the ``skidsteer.tire`` engine plugin, after
 which ``mujoco.MjModel.from_xml_path("models/pioneer3at/pioneer3at_extended.xml")``
-works.  The package is organised by stage (docs/architecture.md): robot ->
-simulation -> data -> features -> diagnosis -> reports, plus experiments (the
-thesis's rigs) and tasks (dm-control).
+works.  The package is organised by stage, each importing only the ones before
+it (docs/architecture.md): robot -> data -> features -> simulation ->
+experiments (the thesis's rigs), diagnosis and tasks (dm-control), side by side
+-> reports -> cli.
 """
 
 from skidsteer.robot.plugin import PLUGIN_NAME, register as _register
