@@ -120,15 +120,16 @@ def findings(result: dict) -> str:
                          key=lambda f: f["score"])
     if implausible:
         scale = implausible[0]["robot"]["logged_speed_scale"]
-        k = {t: {h: f.get("centripetal_ratio", {}).get("value") for h, f in halves.items()}
-             for t, halves in m["features"].items()}
-        seen = "; ".join(f"{t.lower()} {k[t]['fit']:.2f} and {k[t]['held_out']:.2f}"
-                         for t in k if k[t].get("fit") and k[t].get("held_out"))
+        k = {t: v["centripetal_ratio"]["all"] for t, v in result["terrains"].items()
+             if not v["ground"]["deformable"]}
+        seen = "; ".join(f"{t.lower()} {e['measured']['k']:.2f} +- {e['measured']['stderr']:.2f}"
+                         f" (the identified robot's replays: {e['extended']['k']:.2f})"
+                         for t, e in k.items() if e["measured"]["k"] and e["extended"]["k"])
         out.append(
             f"- **Rivals, measured.**  A wheel-speed channel reading low (the rims turning "
             f"{scale:.2f} times the logged speed) fits the turns as well: "
             f"{implausible[0]['implausible']}; and the centripetal ratio (a_y = v Omega, "
-            f"blind to friction) reads {seen} on the two halves, not {scale:.2f}.  The "
+            f"blind to friction) reads {seen}, not {scale:.2f}.  The "
             "centre of mass moved anywhere within 10 cm, and the saturation slip lambda_max "
             "beside the tread, fit worse on the held-out runs (the table of fits).\n")
     loto = result.get("leave_one_terrain_out") or []

@@ -1,33 +1,18 @@
-"""How the suite is split: the slow marks that cannot sit in their test files yet, and
-the units of work of scripts/test.sh's two pytest-xdist workers (--dist loadgroup).
-A pytest plugin: tests/conftest.py imports its hook."""
+"""How the suite is split: the units of work of scripts/test.sh's two pytest-xdist
+workers (--dist loadgroup).  A pytest plugin: tests/conftest.py imports its hook."""
 
 from __future__ import annotations
 
 import pytest
 
-# Tests over about 10 s (pyproject.toml's slow marker) in a file that is being
-# restructured elsewhere, marked here until the mark can go into the file: the
-# seconds measured with --durations=0 on the shared 2-core machine.
-SLOW_ELSEWHERE = {
-    "tests/test_real_data.py::test_diagnose_names_a_centre_of_mass_hidden_in_the_data": 107,
-    "tests/test_real_data.py::test_diagnose_names_a_lugged_tread_hidden_in_the_data": 34,
-    "tests/test_real_data.py::test_diagnose_of_the_base_models_own_replay_finds_no_discrepancy":
-        12,
-}
-
-
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups into the test ids
 def pytest_collection_modifyitems(config, items):
-    """The slow marks of SLOW_ELSEWHERE, and scheduling on pytest-xdist's workers
-    (scripts/test.sh: --dist loadgroup): a test that uses a module-scoped fixture runs
+    """Scheduling on pytest-xdist's workers (scripts/test.sh: --dist loadgroup): a test that uses a module-scoped fixture runs
     on the worker of its module's other such tests, so that the fixture is computed
     once, unless it names its own xdist_group (the hidden-effect diagnoses of
     test_diagnose.py: one group per effect); every other test is a unit of work of its
     own.  Without loadgroup the groups do nothing."""
     for item in items:
-        if item.nodeid.split("[")[0] in SLOW_ELSEWHERE:
-            item.add_marker(pytest.mark.slow)
         if item.get_closest_marker("xdist_group"):
             continue
         # the fixtures' scopes: pytest has no public API for them (a doctest has none)

@@ -44,18 +44,18 @@ def _schedule(number: int, pieces) -> ImuRun:
 
 
 # turning in place both ways, tight and gentle arcs, straight: an operator's drive; the
-# first run of a terrain trains, the second is held out.  Four arcs a run: the
-# centripetal ratio needs three (features.segments), and it is what tells the tyres'
-# sideways friction from the wheels turning faster than logged (both lower chi alike)
+# first run of a terrain trains, the second is held out.  A straight run at 0.78 m/s, as
+# BorealTC's asphalt has: the wheels turning faster than logged lower chi as the tyres'
+# sideways friction does, and the robot's top speed (1.0 m/s) is what rules it out
 SCHEDULES = {  # (left, right m/s, s); successive arcs turn opposite ways (one segment each)
     "FLOORING": [[(-0.08, 0.08, 5), (0.12, -0.12, 5), (0.10, 0.22, 5), (0.25, 0.20, 5),
                   (0.20, 0.25, 5), (0.22, 0.08, 5), (0.23, 0.23, 5)],
                  [(0.10, -0.10, 5), (-0.06, 0.06, 5), (0.22, 0.10, 5), (0.19, 0.23, 5),
                   (0.25, 0.20, 5), (0.06, 0.20, 5), (0.20, 0.20, 5)]],
     "ASPHALT": [[(0.15, -0.15, 5), (0.30, 0.55, 5), (0.55, 0.45, 5), (0.42, 0.52, 5),
-                 (0.55, 0.25, 5), (0.50, 0.50, 5)],
+                 (0.55, 0.25, 5), (0.78, 0.78, 5)],
                 [(-0.12, 0.12, 5), (0.55, 0.30, 5), (0.45, 0.55, 5), (0.52, 0.43, 5),
-                 (0.28, 0.55, 5), (0.45, 0.45, 5)]],
+                 (0.28, 0.55, 5), (0.78, 0.78, 5)]],
 }
 # the hidden robot: Coulomb friction on the resultant slip, its tyres sliding sideways at
 # 0.6 of their longitudinal friction (what the BorealTC Husky's hard floors point to)
@@ -100,6 +100,10 @@ def test_the_centripetal_ratio_is_the_slope_of_a_y_over_v_omega():
     # 40 points of 0.002 m/s^2 noise over a spread of 0.06 m/s^2: k to ~0.01
     assert k["k"] == pytest.approx(1.3, abs=0.03) and 0 < k["stderr"] < 0.03
     assert centripetal_ratio(x[:2], x[:2])["k"] is None
+    # each run's IMU bias (0.06 and -0.03 m/s^2: a tilt) is an intercept of its own
+    run = np.repeat([0, 1], 20)
+    biased = 1.3 * x + np.where(run == 0, 0.06, -0.03) + rng.normal(0, 0.002, 40)
+    assert centripetal_ratio(x, biased, run)["k"] == pytest.approx(1.3, abs=0.03)
 
 
 def test_the_stuck_limit_is_twice_what_isotropic_coulomb_friction_gives():
@@ -135,15 +139,23 @@ def test_segments_that_scatter_like_a_stuck_robot_are_a_sign_of_deformable_groun
     assert any("barely turn" in e for e in judged["evidence"])
 
 
-def test_every_turning_segment_has_a_surrogate_group_of_its_class():
+def test_every_turning_segment_has_surrogate_commands_of_its_class():
     rows = [_row("turn_in_place", 1.4, left=-0.1, right=0.1),
             _row("turn_in_place", 1.4, left=0.1, right=-0.1),
             _row("arc", 1.4, left=0.1, right=0.3), _row("arc", 1.5, left=0.2, right=0.24),
+            _row("arc", 1.4, left=0.05, right=0.35),
             _row("arc", 50.0, left=0.1, right=0.3)]  # stuck: not scored
     groups, group_of = identify.plan_groups(rows, 3.6)
-    assert set(group_of) == {0, 1, 2, 3}
-    assert [identify.class_of(rows[i]) for i in (2, 3)] == ["arc_tight", "arc_gentle"]
-    assert len(groups) == 4
+    assert set(group_of) == {0, 1, 2, 3, 4}
+    assert [identify.class_of(rows[i]) for i in (2, 3, 4)] == ["arc_tight", "arc_gentle",
+                                                               "arc_tight"]
+    # the two tight arcs' sizes (|d / v| 0.5 and 0.75) span two commands at their median
+    # forward speed (0.2 m/s), between which each is interpolated
+    tight = [groups[g] for g in group_of[2]]
+    assert group_of[2] == group_of[4] and len(tight) == 2
+    assert [g.size for g in tight] == pytest.approx([0.5625, 0.6875])
+    assert all((g.left_mps + g.right_mps) / 2 == pytest.approx(0.2) for g in tight)
+    assert len(group_of[3]) == 1 and len(group_of[0]) == 1
 
 
 def test_motion_parameters_set_what_base_values_reads_back():

@@ -2,15 +2,18 @@
 
 Features, per terrain and per half of its runs (alternate runs train, the others are
 held out): the median effective-track factor chi of the segments turning in place, of
-the tight arcs and of the gentle ones (CLASSES), and the centripetal ratio k (features.segments: the robot's
-true speed over the logged one, from a_y = v Omega).  Each is scored in units of its
-scatter: the robust standard error of the median (chi) or of the slope (k), never
-finer than a third of MIN_RELATIVE of the value (the model's own repeatability).
+the tight arcs and of the gentle ones (CLASSES), each scored in units of its scatter:
+the robust standard error of the median, never finer than a third of MIN_RELATIVE of
+the value (the model's own repeatability).  The centripetal ratio k (a_y = v Omega:
+the true speed over the logged one) is measured too (measured_centripetal), and
+compared between recording and replays rather than fitted.
 
 The model side comes from a surrogate of each terrain's segments: their commands
-grouped (class of turn, direction of turn and of travel), each group's median command run at constant wheel speeds on the implicit coupling at
-MOTION_TIMESTEP_S (the yaw rate converges there: within 1 % of the explicit 0.1 ms,
-scripts/bench/bench_motion_step.py), and a segment scored with its group's values.
+grouped (class of turn, direction of turn and of travel), two commands per group at
+its segments' quartiles of turn size, run at constant wheel speeds on the implicit
+coupling at MOTION_TIMESTEP_S (the yaw rate converges there: within 0.01 % of the
+explicit 0.1 ms, scripts/bench/bench_motion_step.py); a segment is scored with the
+values interpolated at its own turn size.
 
 A cause set (diagnosis.motion) frees robot parameters, shared by every terrain, and
 terrain parameters, one set per terrain; ``fit`` finds them by bounded least squares
@@ -62,7 +65,7 @@ TURN_KINDS = ("turn_in_place", "arc")
 # between them
 TIGHT_ARC_RATIO = 1 / 3
 CLASSES = ("turn_in_place", "arc_tight", "arc_gentle")
-FEATURES = tuple(f"chi_{c}" for c in CLASSES) + ("centripetal_ratio",)
+FEATURES = tuple(f"chi_{c}" for c in CLASSES)
 
 
 def class_of(row: dict) -> str:
@@ -92,7 +95,13 @@ def turning(rows: list[dict], kind: str, half: str | None = None,
 
 def arcs_for_centripetal(rows: list[dict], half: str | None, stuck_chi: float) -> list[dict]:
     return [r for r in turning(rows, "arc", half, stuck_chi)
-            if r.get("centripetal_y") is not None]
+            if r.get("a_y_m_s2") is not None and r.get("centripetal_x") is not None]
+
+
+def straight_for_centripetal(rows: list[dict], half: str | None) -> list[dict]:
+    """Straight segments: x about 0, they pin each run's a_y bias."""
+    return [r for r in rows if r["kind"] == "straight" and (half is None or r["half"] == half)
+            and r.get("a_y_m_s2") is not None and r.get("centripetal_x") is not None]
 
 
 def median_summary(values) -> dict:
@@ -112,18 +121,29 @@ def sigma(summary: dict) -> float:
 
 def measured_features(rows: list[dict], half: str | None, stuck_chi: float) -> dict:
     """The measured features of a terrain's half (None: every run): chi per class with at
-    least one segment (a single segment's scatter is sigma's floor), the centripetal
-    ratio with at least 3."""
+    least one segment (a single segment's scatter is sigma's floor)."""
     out = {}
     for cls in CLASSES:
         s = median_summary([r["chi_measured"] for r in of_class(rows, cls, half, stuck_chi)])
         if s["n"] >= 1:
             out[f"chi_{cls}"] = s
-    arcs = arcs_for_centripetal(rows, half, stuck_chi)
-    c = centripetal_ratio([r["centripetal_x"] for r in arcs], [r["centripetal_y"] for r in arcs])
-    if c["k"] is not None and c["k"] > 0:
-        out["centripetal_ratio"] = {"value": c["k"], "stderr": c["stderr"], "n": c["n"]}
     return out
+
+
+def measured_centripetal(rows: list[dict], half: str | None, stuck_chi: float,
+                         key: str = "") -> dict:
+    """The centripetal ratio of a terrain's half from its arcs and straight segments, each
+    run with its own a_y bias (features.segments.centripetal_ratio); key "" for the
+    recording, "_base" or "_extended" for a replay's.  Not a fit feature: a surrogate's
+    steady arcs read it 0.2 higher than replays of the operator's varying commands on
+    the same model, so it is compared replay against recording."""
+    arcs = [r for r in arcs_for_centripetal(rows, half, stuck_chi)
+            if r.get(f"a_y{key}_m_s2") is not None]
+    used = arcs + [r for r in straight_for_centripetal(rows, half)
+                   if r.get(f"a_y{key}_m_s2") is not None]
+    c = centripetal_ratio([r[f"centripetal_x{key}"] for r in used],
+                          [r[f"a_y{key}_m_s2"] for r in used], [r["run"] for r in used])
+    return c if len(arcs) >= 3 else {"k": None, "stderr": None, "n": len(used)}
 
 
 def stuck_chi(m: mujoco.MjModel) -> float:
@@ -138,14 +158,25 @@ def stuck_chi(m: mujoco.MjModel) -> float:
 @dataclasses.dataclass(frozen=True)
 class Group:
     kind: str
-    left_mps: float  # logged wheel speeds: the group's median command
+    left_mps: float  # logged wheel speeds of the surrogate's command
     right_mps: float
+    size: float = 0.0  # its turn's size: |d / v| of an arc, |d| of a turn in place
 
 
-def plan_groups(rows: list[dict], stuck: float) -> tuple[list[Group], dict[int, int]]:
+def turn_size(row: dict) -> float:
+    """How sharply a segment turns: |d / v| for an arc, |d| in place (d, v: the half
+    difference and the mean of the sides' logged speeds)."""
+    v, d = (row["left_mps"] + row["right_mps"]) / 2, (row["right_mps"] - row["left_mps"]) / 2
+    return abs(d) if row["kind"] != "arc" or v == 0 else abs(d / v)
+
+
+def plan_groups(rows: list[dict], stuck: float) -> tuple[list[Group], dict[int, tuple]]:
     """The surrogate's commands: a terrain's turning segments (both halves: commands, not
-    outcomes) grouped by class, direction of turn and of travel; each group's command is
-    its members' median.  Returns the groups and, per row index in rows, its group."""
+    outcomes) grouped by class, direction of turn and of travel; per group two commands
+    at the 25th and 75th percentiles of its segments' turn size (turn_size) at their
+    median forward speed (one where they do not differ), between which a segment's
+    model values are interpolated (chi moves with an arc's tightness).  Returns the
+    commands and, per row index in rows, the indices of its group's commands."""
     groups, group_of = [], {}
     index = {id(r): i for i, r in enumerate(rows)}
     for cls in CLASSES:
@@ -154,12 +185,18 @@ def plan_groups(rows: list[dict], stuck: float) -> tuple[list[Group], dict[int, 
             v, d = (r["left_mps"] + r["right_mps"]) / 2, (r["right_mps"] - r["left_mps"]) / 2
             keys.setdefault((np.sign(d), np.sign(v) if cls != "turn_in_place" else 0),
                             []).append(r)
-        for _, chosen in sorted(keys.items()):
-            kind = "arc" if cls.startswith("arc") else cls
-            groups.append(Group(kind, float(np.median([r["left_mps"] for r in chosen])),
-                                float(np.median([r["right_mps"] for r in chosen]))))
+        kind = "arc" if cls.startswith("arc") else cls
+        for (sign_d, _), chosen in sorted(keys.items()):
+            sizes = np.array([turn_size(r) for r in chosen])
+            v = float(np.median([(r["left_mps"] + r["right_mps"]) / 2 for r in chosen]))
+            levels = np.unique(np.round(np.percentile(sizes, [25, 75]), 6))
+            members = []
+            for size in levels:
+                d = sign_d * (size * abs(v) if kind == "arc" else size)
+                groups.append(Group(kind, v - d, v + d, float(size)))
+                members.append(len(groups) - 1)
             for r in chosen:
-                group_of[index[id(r)]] = len(groups) - 1
+                group_of[index[id(r)]] = tuple(members)
     return groups, group_of
 
 
@@ -178,45 +215,55 @@ def motion_model(setup: Setup, values: dict, settings: dict, edit=None) -> mujoc
 def simulate_groups(m: mujoco.MjModel, groups: Sequence[Group], nthread: int = 2
                     ) -> np.ndarray:
     """(groups, 2): each group's mean yaw rate (rad/s) and lateral specific force (m/s^2,
-    relative to the robot's at rest) over the last AVERAGE_S of SURROGATE_S."""
+    relative to the robot's driving straight at the groups' median forward speed, as
+    the recordings' is to their straight driving) over the last AVERAGE_S of
+    SURROGATE_S."""
     geometry = DriveGeometry.from_model(m)
     scale = roles.model_numeric(m, "drive.logged_speed_scale", 1.0) / geometry.wheel_radius
     nstep = int(round(SURROGATE_S / m.opt.timestep))
-    # the last control row holds the robot still: its a_y is the IMU's at rest
-    controls = np.zeros((len(groups) + 1, nstep, m.nu))
-    for g, group in enumerate(groups):
-        controls[g, :, list(geometry.left_actuators)] = scale * group.left_mps
-        controls[g, :, list(geometry.right_actuators)] = scale * group.right_mps
+    # the last control row drives straight: its a_y is the IMU's bias
+    straight = float(np.median([(g.left_mps + g.right_mps) / 2 for g in groups]))
+    commands = [(g.left_mps, g.right_mps) for g in groups] + [(straight, straight)]
+    controls = np.zeros((len(commands), nstep, m.nu))
+    for g, (left, right) in enumerate(commands):
+        controls[g, :, list(geometry.left_actuators)] = scale * left
+        controls[g, :, list(geometry.right_actuators)] = scale * right
     runs = runs_from_rest(m, controls, SETTLE_S, nthread)
     tail = int(round(AVERAGE_S / m.opt.timestep))
-    at_rest = runs[-1].accel[-tail:, 1].mean()
-    return np.array([[run.gyro[-tail:, 2].mean(), run.accel[-tail:, 1].mean() - at_rest]
+    bias = runs[-1].accel[-tail:, 1].mean()
+    return np.array([[run.gyro[-tail:, 2].mean(), run.accel[-tail:, 1].mean() - bias]
                      for run in runs[:-1]])
 
 
-def model_features(rows: list[dict], group_of: dict[int, int], groups: Sequence[Group],
+def segment_model(row: dict, members: tuple, groups: Sequence[Group], values: np.ndarray,
+                  track_m: float) -> tuple[float, float]:
+    """A segment's model chi and centripetal ratio, interpolated in turn size between its
+    group's two commands (held beyond them)."""
+    chi, k = [], []
+    for g in members:
+        yaw, a_y = values[g]
+        group = groups[g]
+        chi.append((group.right_mps - group.left_mps) / track_m / yaw if abs(yaw) > 1e-9
+                   else np.inf)
+        x = (group.left_mps + group.right_mps) / 2 * yaw
+        k.append(a_y / x if abs(x) > 1e-12 else np.nan)
+    if len(members) == 1:
+        return chi[0], k[0]
+    sizes = [groups[g].size for g in members]
+    size = turn_size(row)
+    return float(np.interp(size, sizes, chi)), float(np.interp(size, sizes, k))
+
+
+def model_features(rows: list[dict], group_of: dict[int, tuple], groups: Sequence[Group],
                    values: np.ndarray, half: str | None, stuck: float, track_m: float) -> dict:
     """The model's features of a half from the groups' simulated (yaw rate, a_y)."""
     out = {}
     index = {id(r): i for i, r in enumerate(rows)}
     for cls in CLASSES:
-        chi = []
-        for r in of_class(rows, cls, half, stuck):
-            g = group_of[index[id(r)]]
-            yaw = values[g, 0]
-            predicted = (groups[g].right_mps - groups[g].left_mps) / track_m
-            chi.append(predicted / yaw if abs(yaw) > 1e-9 else np.inf)
+        chi = [segment_model(r, group_of[index[id(r)]], groups, values, track_m)[0]
+               for r in of_class(rows, cls, half, stuck)]
         if chi:
             out[f"chi_{cls}"] = float(np.median(chi))
-    x, y = [], []
-    for r in arcs_for_centripetal(rows, half, stuck):
-        g = group_of[index[id(r)]]
-        group = groups[g]
-        x.append((group.left_mps + group.right_mps) / 2 * values[g, 0])
-        y.append(values[g, 1])
-    c = centripetal_ratio(x, y)
-    if c["k"] is not None:
-        out["centripetal_ratio"] = c["k"]
     return out
 
 

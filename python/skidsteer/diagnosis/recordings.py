@@ -31,26 +31,18 @@ from skidsteer.simulation.backends import LocalBackend
 from skidsteer.simulation.drive import DriveGeometry
 
 HALVES = ("fit", "held_out")
-MIN_STRAIGHT_SAMPLES = 100  # a run's a_y bias needs 1 s of straight driving at 100 Hz
 
 
 # ------------------------------------------------------------------ rows
 
 def segment_rows(runs, track_m: float) -> list[dict]:
     """One row per segment of the runs with wheel speeds: kind, logged command, the
-    measured yaw rates and chi, the centripetal ratio's inputs, the motor current, and
-    the half (alternate runs)."""
+    measured yaw rates and chi, the centripetal ratio's inputs (mean v Omega and a_y),
+    the motor current, and the half (alternate runs)."""
     rows = []
     usable = [r for r in runs if r.wheels is not None]
     for index, run in enumerate(usable):
-        segments = run_segments(run)
-        straight = np.zeros(len(run.time_s), bool)
-        for s in segments:
-            if s.kind == "straight":
-                straight |= settled_window(s, run.time_s)
-        bias = (float(run.accel[straight, 1].mean())
-                if straight.sum() >= MIN_STRAIGHT_SAMPLES else None)
-        for s in segments:
+        for s in run_segments(run):
             yaw = run_yaw_features(s, run, track_m)
             a_y = lateral_acceleration(s, run)
             measured = yaw["yaw_rate_deg_s"]
@@ -60,11 +52,20 @@ def segment_rows(runs, track_m: float) -> list[dict]:
                 "right_mps": s.right_mps, "yaw_rate_measured_deg_s": measured,
                 "yaw_rate_predicted_deg_s": yaw["yaw_rate_predicted_deg_s"],
                 "chi_measured": yaw["chi"],
-                "centripetal_x": (None if measured is None else
-                                  (s.left_mps + s.right_mps) / 2 * np.deg2rad(measured)),
-                "centripetal_y": None if a_y is None or bias is None else a_y - bias,
+                "centripetal_x": _centripetal_x(s, run), "a_y_m_s2": a_y,
                 "current_a": _segment_current(run, s)})
     return rows
+
+
+def _centripetal_x(segment, run) -> float | None:
+    """The mean over the segment's settled window of v_logged(t) Omega(t) (m/s^2), the
+    product sample by sample: where an operator slows as the turn tightens, the product
+    of the means is not the mean of the product that a_y measures."""
+    window = settled_window(segment, run.time_s)
+    if not window.any():
+        return None
+    left, right = run.wheels.at(run.time_s[window])
+    return float(np.mean((left + right) / 2 * run.gyro[window, 2]))
 
 
 def _segment_current(run, segment) -> float | None:
@@ -88,6 +89,8 @@ def add_simulated(rows: list[dict], runs, simulated, track_m: float, key: str,
         yaw = run_yaw_features(seg, sim, track_m)
         r[f"yaw_rate_{key}_deg_s"] = yaw["yaw_rate_deg_s"]
         r[f"chi_{key}"] = yaw["chi"]
+        r[f"a_y_{key}_m_s2"] = lateral_acceleration(seg, sim)
+        r[f"centripetal_x_{key}"] = _centripetal_x(seg, sim)
         if r["kind"] == lines.KIND:
             r[f"vibration_{key}"] = segment_vibration(seg, sim, radius_m)
 
@@ -207,7 +210,11 @@ def diagnose_terrains(paths: Sequence, model: str = "husky_a200", progress: bool
         result["terrains"][terrain.name] = {
             "path": str(terrain.path), "floor": floor, "setup_floor": setup.floor,
             "runs": len(runs), "rows": rows, "ground": evidence[terrain.name],
-            "chi": chi_table(rows, stuck), "identified": unknown.get(terrain.name)}
+            "chi": chi_table(rows, stuck), "identified": unknown.get(terrain.name),
+            "centripetal_ratio": {
+                half or "all": {key or "measured": identify.measured_centripetal(
+                    rows, half, stuck, key and f"_{key}") for key in ("", "base", "extended")}
+                for half in (*HALVES, None)}}
     bar.close()
     if with_lines:
         rigid = [(t.name, setup, rows) for t, setup, _, rows, _ in terrains

@@ -215,25 +215,34 @@ def lateral_acceleration(segment: Segment, run) -> float | None:
     return float(np.mean(run.accel[window, 1])) if window.any() else None
 
 
-def centripetal_ratio(x, y) -> dict:
+def centripetal_ratio(x, y, group=None) -> dict:
     """How fast the robot moves for its logged speed, from its centripetal acceleration.
 
     In a steady arc the IMU's lateral specific force is a_y = v Omega whatever the
     tires do (the body-frame acceleration of a point moving at v while turning at
-    Omega; the IMU's fore-aft offset adds -Omega^2 x on a_x only): with x = v_logged
-    Omega_measured and y = a_y minus the run's own a_y when driving straight (the
-    IMU's tilt and bias), the slope k of y = k x is the true speed over the logged
-    one, times the gyro's scale error, independent of any friction law.  Returns k,
-    its standard error (segment residuals) and the number of segments (k None with
-    fewer than 3)."""
+    Omega; the IMU's fore-aft offset adds -Omega^2 x on a_x only), on top of the IMU's
+    tilt and bias.  With x = v_logged Omega_measured (a segment's mean of the product,
+    sample by sample) and y its mean a_y, the slope k of y = k x + b is the true speed
+    over the logged one, times the gyro's scale error, independent of any friction law.
+    group: per segment its run, each with an intercept b of its own (the IMU's bias,
+    which a run's straight driving, x about 0, and its turns both ways pin); None: one
+    intercept at 0 (y already bias-free).  Returns k, its standard error (segment
+    residuals) and the number of segments (k None with fewer than 3 turning ones)."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     ok = np.isfinite(x) & np.isfinite(y)
     x, y = x[ok], y[ok]
-    if len(x) < 3 or not np.any(x):
+    labels = np.zeros(len(x), int) if group is None else np.unique(
+        np.asarray(group)[ok], return_inverse=True)[1]
+    if group is not None:
+        for g in np.unique(labels):  # the intercepts, by demeaning within each run
+            x[labels == g] -= x[labels == g].mean()
+            y[labels == g] -= y[labels == g].mean()
+    n_free = len(x) - (len(np.unique(labels)) if group is not None else 0)
+    if n_free < 3 or not np.any(x):
         return {"k": None, "stderr": None, "n": int(len(x))}
     k = float(x @ y / (x @ x))
     residual = y - k * x
-    return {"k": k, "stderr": float(np.sqrt(residual @ residual / (len(x) - 1) / (x @ x))),
+    return {"k": k, "stderr": float(np.sqrt(residual @ residual / (n_free - 1) / (x @ x))),
             "n": int(len(x))}
 
 

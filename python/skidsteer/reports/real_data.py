@@ -129,9 +129,22 @@ def chi_section(result: dict) -> str:
                              f"{e['measured']:.2f} +- {e.get('stderr') or 0:.2f}",
                              fmt(e.get("base"), ".2f"), fmt(e.get("extended"), ".2f"),
                              _off(e.get("extended"), e["measured"])])
+    k_rows = []
+    for name, t in result["terrains"].items():
+        for half, entry in t.get("centripetal_ratio", {}).items():
+            m = entry["measured"]
+            if m["k"] is None:
+                continue
+            k_rows.append([name, half.replace("_", "-"), m["n"], f"{m['k']:.2f} +- {m['stderr']:.2f}",
+                           fmt(entry["base"]["k"], ".2f"), fmt(entry["extended"]["k"], ".2f")])
     return ("## How the robot turns (replays of every run)\n\n"
             + table(["terrain", "kind", "runs", "segments", "chi measured", "base model",
-                     "extended", "extended vs measured"], rows) + "\n")
+                     "extended", "extended vs measured"], rows)
+            + "\nThe centripetal ratio k (a_y over v Omega, each run's IMU bias its own: the "
+            "robot's true speed over the logged one, blind to friction), the recording "
+            "against replays of the same runs:\n\n"
+            + table(["terrain", "runs", "segments", "k measured", "base model", "extended"],
+                    k_rows) + "\n")
 
 
 def _off(model, measured) -> str:
