@@ -1,4 +1,4 @@
-"""Steady segments of a recorded run and their yaw-rate features (issue 20).
+"""Steady segments of a recorded run and their features: yaw rates, vibration.
 
 A real run is not one constant command: the operator turns in place, drives
 straight, arcs and stops.  ``segments`` cuts a run wherever the kind of its wheel
