@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from skidsteer import cli_options as opt
+from skidsteer.cli import options as opt
 from skidsteer.cli import build_parser, main
 from skidsteer.robot import Setup, load_model, resolve
 
@@ -66,7 +66,7 @@ def test_the_enumeration_finds_the_numeric_options():
                          ids=[f"{c} {o}" for c, o, _ in NUMERIC])
 def test_every_numeric_option_has_a_physical_range(command, option, action):
     assert isinstance(action.type, opt.Bounded), \
-        f"skidsteer {command} {option}: give it a cli_options.Bounded type"
+        f"skidsteer {command} {option}: give it a cli.options.Bounded type"
     assert action.type.reason, f"skidsteer {command} {option}: its range needs a reason"
     if action.default is not None:  # the default itself is in range
         assert action.type(str(action.default)) == action.default

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from skidsteer import cli_options as opt
+from skidsteer.cli import options as opt
 from skidsteer.data.dataset import run_file_name
 from skidsteer.data.files import write_atomically
 from skidsteer.data.imu import is_imu_folder
@@ -564,6 +564,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"skidsteer: error: {error}", file=sys.stderr)
         return 2
 
-
-if __name__ == "__main__":
-    sys.exit(main())
