@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import mujoco
@@ -13,7 +12,6 @@ import skidsteer
 from skidsteer.simulation import settle
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "scripts"))
 
 from installed_copy import stale_files  # noqa: E402  (tests/, on sys.path as conftest's folder)
 # the suite's slow marks and worker groups: a hook, which pytest finds in this module

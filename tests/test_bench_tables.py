@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 
 import mujoco
 import numpy as np
@@ -16,11 +15,9 @@ from conftest import REPO
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.benchmark_rows import row_outcome, wrong_name
 
-sys.path.insert(0, str(REPO / "scripts" / "bench"))
-
-import bench_diagnose_ceiling  # noqa: E402
-import bench_diagnose_generalisation  # noqa: E402
-import update_readme_tables  # noqa: E402  (scripts/, on sys.path by conftest)
+import bench_diagnose_ceiling  # scripts/bench/ and scripts/: pytest's pythonpath
+import bench_diagnose_generalisation
+import update_readme_tables
 
 DOCS = REPO / "docs"
 
@@ -164,7 +161,7 @@ def test_a_results_file_holds_rows_of_one_step_and_one_scale(tmp_path, capsys, o
 
 
 def test_rigid_belts_stiffen_the_belt_couplings_only():
-    import mechanism_features  # scripts/, on sys.path by conftest
+    import mechanism_features  # scripts/, on pytest's pythonpath
     from skidsteer.robot import load_model
 
     shipped = load_model("extended", "concrete")
