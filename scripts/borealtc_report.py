@@ -81,7 +81,7 @@ def summary(result: dict) -> str:
                          key.split("/")[0].replace("_", " "), e["n"],
                          f"{e['measured']:.2f}", f"{e.get('base', float('nan')):.2f}",
                          f"{e['extended']:.2f}" if "extended" in e else "-",
-                         real_data._off(e.get("extended"), e["measured"])])
+                         real_data.relative_off(e.get("extended"), e["measured"])])
     m = result["motion"]
     return (f"\n**Motion: {m['verdict']}**" + (f" ({m['cause']})" if m["cause"] else "")
             + f". {m['reason']}\n\n"

@@ -45,7 +45,8 @@ def main() -> None:
             rows.append({"what": label, "terrains": list(result["terrains"]), "wall_s": wall,
                          "target_s": TARGETS_S[label], "simulations": result["simulations"],
                          "motion": result["motion"]["verdict"],
-                         "cause": result["motion"]["cause"]})
+                         "cause": result["motion"]["cause"],
+                         "reason": result["motion"]["reason"]})
         if args.null:
             null = Path(tmp) / "null"
             robot = load_robot("husky_a200")
@@ -64,6 +65,7 @@ def main() -> None:
                          "simulations": result["simulations"],
                          "motion": result["motion"]["verdict"],
                          "cause": result["motion"]["cause"],
+                         "reason": result["motion"]["reason"],
                          "lines": result.get("lines", {}).get("cause")})
     print("| diagnose | terrains | wall (s) | target (s) | surrogate simulations | verdict |")
     print("|---|---|---|---|---|---|")
@@ -73,6 +75,8 @@ def main() -> None:
         print(f"| {r['what']} | {', '.join(r['terrains'])} | {r['wall_s']:.0f} | {target} | "
               f"{r['simulations']} | {r['motion']} {r['cause'] or ''}"
               + (f"; lines: {r['lines'] or 'none named'}" if "lines" in r else "") + " |")
+    for r in rows:
+        print(f"{r['what']}: {r['reason']}")
     print(machine(), "load before", load_before, "after", loadavg())
     if args.json:
         save_results(args.json, "bench_real_data", rows=rows, load_before=load_before,

@@ -128,7 +128,7 @@ def chi_section(result: dict) -> str:
                 rows.append([name, kind.replace("_", " "), half.replace("_", "-"), e["n"],
                              f"{e['measured']:.2f} +- {e.get('stderr') or 0:.2f}",
                              fmt(e.get("base"), ".2f"), fmt(e.get("extended"), ".2f"),
-                             _off(e.get("extended"), e["measured"])])
+                             relative_off(e.get("extended"), e["measured"])])
     k_rows = []
     for name, t in result["terrains"].items():
         for half, entry in t.get("centripetal_ratio", {}).items():
@@ -147,7 +147,8 @@ def chi_section(result: dict) -> str:
                     k_rows) + "\n")
 
 
-def _off(model, measured) -> str:
+def relative_off(model, measured) -> str:
+    """The model against the measured value as a signed percentage, "-" without both."""
     return "-" if model is None or not measured else f"{(model / measured - 1):+.1%}"
 
 
@@ -203,8 +204,8 @@ def loto_section(loto: list[dict]) -> str:
             no_fit = e["no_fit"]["held_out"].get(feature)
             fitted = e["fitted_held_out"].get(feature)
             rows.append([e["terrain"], ", ".join(e["robot_from"]), feature, f"{measured:.2f}",
-                         fmt(no_fit, ".2f"), _off(no_fit, measured), fmt(fitted, ".2f"),
-                         _off(fitted, measured)])
+                         fmt(no_fit, ".2f"), relative_off(no_fit, measured), fmt(fitted, ".2f"),
+                         relative_off(fitted, measured)])
     return ("\n## Leave one terrain out (held-out runs; surrogate)\n\n"
             "The robot fitted on the other terrains; the left-out terrain with its own "
             "parameters at the robot's default (no fit), then fitted on its training runs.\n\n"
