@@ -181,6 +181,25 @@ def test_the_drivetrain_error_pushes_fore_aft_at_its_order():
     assert rippled["power"][17, 0] > 1e3 * plain["power"][17, 0]
 
 
+def test_an_imu_mount_sways_sideways_at_its_frequency():
+    # the order-36 line of a 0.1 mm order-18 transmission error at 0.576 m/s lies at 20
+    # Hz; a mount tuned there at 3 % of critical damping amplifies it ~1/(2 zeta) = 17x in
+    # a_y and leaves a_x alone (it slides sideways only); 10 dB and 1 dB: clear of the
+    # +-3 dB a line of a few Welch averages scatters by, and of the mount's 0.1 kg moving
+    # the 57 kg robot
+    speed = 20.0 * 2 * np.pi * RADIUS_M / 36
+    run = lines.straight_run(speed, 100.0)
+    seg = Segment(run.path.name, 1.0, float(run.time_s[-1]), "straight", speed, speed)
+    ripple = lines.drivetrain_edit(18, [1e-4, 1e-4])
+    mount = lines.imu_mount_edit(20.0, 0.03)
+    m = _husky(edit=lambda spec: (ripple(spec), mount(spec)))
+    assert m.sensor("accelerometer").objid == m.site("imu_mount_site").id
+    mounted = segment_vibration(seg, replay(m, run), RADIUS_M)
+    rigid = segment_vibration(seg, replay(_husky(edit=ripple), run), RADIUS_M)
+    gain_db = 10 * np.log10(mounted["power"][35] / rigid["power"][35])
+    assert gain_db[1] > 10 and abs(gain_db[0]) < 1, gain_db
+
+
 def test_the_lug_count_is_the_line_whose_multiples_are_lines():
     assert lines.lug_count_of([4, 18, 19, 35, 36, 53, 54]) == 18
     assert lines.lug_count_of([18, 36, 54]) == 18
@@ -277,6 +296,20 @@ def test_a_terrain_without_a_rigid_reference_is_taken_as_rigid_and_said_so():
     judged = ground.judge(rows, 3.6, None)
     assert not judged["deformable"]
     assert "for want of evidence" in judged["evidence"][0]
+
+
+def test_a_tie_with_a_wheel_speed_scale_proposes_the_speed_that_rules_it_out():
+    from types import SimpleNamespace
+
+    from skidsteer.diagnosis.recordings import next_recording
+    case = SimpleNamespace(setup=Setup(robot="husky_a200", build="base", floor="flooring"),
+                           rows=[_row("straight", None, 4.16, left=0.24, right=0.24)])
+    scaled = SimpleNamespace(cause="wheel_speed_scale", robot={"logged_speed_scale": 1.6})
+    law = SimpleNamespace(cause="combined_slip + tread_anisotropy", robot={})
+    said = next_recording([law, scaled], [case])
+    # the Husky's 1.0 m/s top speed over the scale: 0.625 m/s
+    assert "above 0.62 m/s (these reach 0.24)" in said and "wheel_speed_scale" in said
+    assert next_recording([law, law], [case]) is None  # nothing known separates them
 
 
 @pytest.mark.parametrize("option", [["--model-spread"], ["--search-starts", "3"],

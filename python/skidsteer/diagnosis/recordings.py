@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 from skidsteer.data.terrains import read_terrain, terrain_paths
 from skidsteer.diagnosis import ground, identify, lines, motion
-from skidsteer.diagnosis.verdict import Z_CONSISTENT, verdict
+from skidsteer.diagnosis.verdict import Z_CONSISTENT, Z_EXPLAINED, verdict
 from skidsteer.experiments.replay import replay
 from skidsteer.features.segments import (Segment, lateral_acceleration, run_segments,
                                          run_yaw_features, segment_vibration, settled_window)
@@ -195,9 +195,9 @@ def diagnose_terrains(paths: Sequence, model: str = "husky_a200", progress: bool
                for t, _, floor, _, _ in terrains if floor is None
                for c in cases if c.name == t.name}
     # replays: every run on the base model, the rigid terrains' on the extended one too
-    total = sum(len([r for r in t.data.runs if r.wheels is not None]) for t, *_ in terrains)
-    bar = tqdm(total=total * (2 if named else 1), desc="replay", unit="run",
-               disable=not progress)
+    total = sum(len([r for r in t.data.runs if r.wheels is not None])
+                * (2 if named and t.name in base else 1) for t, *_ in terrains)
+    bar = tqdm(total=total, desc="replay", unit="run", disable=not progress)
     for terrain, setup, floor, rows, stuck in terrains:
         runs = [r for r in terrain.data.runs if r.wheels is not None]
         add_vibration(rows, runs, radius)
@@ -282,9 +282,30 @@ def judge_fits(base_fit, fits, cases) -> tuple[str, object, str]:
         best = plausible[0]
         plausible = [best] + [f for f in plausible[1:]
                               if not set(best.causes) <= set(f.causes)]
-    return verdict(base_all, base_fit.held_out_error, plausible, noise,
-                   base_train=base_fit.train_error, n_train=n_train,
-                   scale="the segments' scatter")
+    name, named, reason = verdict(base_all, base_fit.held_out_error, plausible, noise,
+                                  base_train=base_fit.train_error, n_train=n_train,
+                                  scale="the segments' scatter")
+    # two fits that each explain the held-out runs and that the rules cannot tell apart
+    tied = (named is None and len(plausible) >= 2
+            and all(f.held_out_error <= Z_EXPLAINED for f in plausible[:2]))
+    proposal = next_recording(plausible[:2], cases) if tied else None
+    return name, named, reason + (f"; {proposal}" if proposal else "")
+
+
+def next_recording(contenders, cases) -> str | None:
+    """What recording would tell two contending fits apart, where the rule is known: a
+    logged-speed scale is implausible once it puts the rims past the robot's top speed,
+    so wheels logged faster than top speed / scale rule it out."""
+    scaled = [f for f in contenders if f.robot.get("logged_speed_scale")]
+    if len(contenders) < 2 or len(scaled) != 1:
+        return None
+    scale = scaled[0].robot["logged_speed_scale"]
+    top, fastest = speed_limits(cases)
+    if not np.isfinite(top) or scale <= 1:
+        return None
+    return (f"runs with the wheels logged above {top / scale:.2f} m/s (these reach "
+            f"{fastest:.2f}) would tell them apart: there {scaled[0].cause}'s logged-speed "
+            f"scale {scale:.2f} puts the rims past the robot's top speed, {top:.2f} m/s")
 
 
 def base_error(base_fit) -> float:
@@ -298,14 +319,21 @@ def gain(base_held: float, held: float, noise: float) -> float:
     return 0.0 if excess <= 0 else float(min(1.0, (base_held ** 2 - held ** 2) / excess))
 
 
+def speed_limits(cases) -> tuple[float, float]:
+    """The robot's top speed (skidsteer.drive.top_speed_mps; inf without) and the fastest
+    wheel speed the recordings log, m/s."""
+    top = roles.model_numeric(load_model(cases[0].setup), "drive.top_speed_mps", np.inf)
+    fastest = max(max(abs(r["left_mps"]), abs(r["right_mps"])) for c in cases for r in c.rows)
+    return top, fastest
+
+
 def implausible(fit, cases) -> str | None:
     """Why a fit's values are impossible for the robot, or None: a logged-speed scale
     that puts the rims beyond the robot's top speed (skidsteer.drive.top_speed_mps)."""
     scale = fit.robot.get("logged_speed_scale")
     if scale is None:
         return None
-    top = roles.model_numeric(load_model(cases[0].setup), "drive.top_speed_mps", np.inf)
-    fastest = max(max(abs(r["left_mps"]), abs(r["right_mps"])) for c in cases for r in c.rows)
+    top, fastest = speed_limits(cases)
     if scale * fastest > top:
         return (f"its logged-speed scale {scale:.2f} puts the rims at {scale * fastest:.2f} "
                 f"m/s on the fastest logged command ({fastest:.2f} m/s), beyond the robot's "
