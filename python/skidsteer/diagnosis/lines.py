@@ -30,7 +30,6 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from skidsteer.data.imu import ImuRun, WheelSpeeds
@@ -161,18 +160,8 @@ def imu_mount_edit(frequency_hz: float, damping_ratio: float):
     """The accelerometer and gyro moved onto a small body that slides sideways (the
     robot's y) on a spring and a damper at the IMU's site."""
     def edit(spec):
-        site = causes.sensor_site(spec, "accelerometer")
-        mount = site.parent.add_body(name="imu_mount", pos=list(site.pos),
-                                     quat=list(site.quat))
-        mount.add_geom(name="imu_mount", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02] * 3,
-                       mass=MOUNT_MASS_KG, contype=0, conaffinity=0, group=3)
-        causes.add_spring_slides(mount, MOUNT_MASS_KG, frequency_hz, damping_ratio,
-                                 {"imu_mount_y": [0, 1, 0]})
-        mount.add_site(name="imu_mount_site")
-        for role in ("accelerometer", "gyro"):
-            sensor = roles.spec_sensor(spec, role)
-            if sensor is not None:
-                sensor.objname = "imu_mount_site"
+        causes.mount_sensors(spec, "imu_mount", MOUNT_MASS_KG, frequency_hz, damping_ratio,
+                             {"imu_mount_y": [0, 1, 0]})
     return edit
 
 

@@ -196,6 +196,26 @@ def sensor_site(spec: mujoco.MjSpec, role: str = "accelerometer"):
     return spec.site(s.objname)
 
 
+def mount_sensors(spec: mujoco.MjSpec, name: str, mass: float, frequency_hz: float,
+                  damping_ratio: float, axes: dict[str, list[float]]):
+    """Moves the accelerometer and the gyro onto a small box body `name` of `mass` at the
+    accelerometer's site, sliding along each named axis on a spring and a damper
+    (add_spring_slides); returns the body."""
+    site = sensor_site(spec, "accelerometer")
+    if site.parent is None:
+        raise NotApplicable(f"{name}: the accelerometer's site has no body")
+    body = site.parent.add_body(name=name, pos=list(site.pos), quat=list(site.quat))
+    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 0.02, 0.02],
+                  mass=mass, contype=0, conaffinity=0, group=3)
+    add_spring_slides(body, mass, frequency_hz, damping_ratio, axes)
+    body.add_site(name=f"{name}_site")
+    for role in ("accelerometer", "gyro"):
+        sensor = roles.spec_sensor(spec, role)
+        if sensor is not None:
+            sensor.objname = f"{name}_site"
+    return body
+
+
 def critical_damping(stiffness: float, inertia: float, ratio: float) -> float:
     """Viscous damping of a spring-mass (or torsion-inertia) at a damping ratio."""
     return 2.0 * ratio * float(np.sqrt(stiffness * inertia))

@@ -7,9 +7,7 @@ mount's natural frequency, and moves the accelerometer (and gyro) onto it.
 
 import mujoco
 
-from skidsteer.diagnosis.causes import (Cause, NotApplicable, Parameter, add_spring_slides,
-                                        sensor_site)
-from skidsteer.robot import roles
+from skidsteer.diagnosis.causes import Cause, Parameter, mount_sensors
 
 CUBE_MASS_KG = 0.1  # assumed: a 4 cm wood cube (~40 g) with three SCA620 boards and cables
 FREQUENCY = Parameter(
@@ -22,20 +20,9 @@ DAMPING_RATIO = Parameter(
 
 
 def apply(spec: mujoco.MjSpec, params, seed: int = 0) -> None:
-    site = sensor_site(spec, "accelerometer")
-    parent = site.parent
-    if parent is None:
-        raise NotApplicable("sensor_mount: the accelerometer's site has no body")
-    cube = parent.add_body(name="sensor_cube", pos=list(site.pos), quat=list(site.quat))
-    cube.add_geom(name="sensor_cube", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 0.02, 0.02],
-                  mass=CUBE_MASS_KG, contype=0, conaffinity=0, group=3)
-    add_spring_slides(cube, CUBE_MASS_KG, params["frequency_hz"], params["damping_ratio"],
-                      {"cube_x": [1, 0, 0], "cube_y": [0, 1, 0], "cube_z": [0, 0, 1]})
-    cube.add_site(name="sensor_cube_site")
-    for role in ("accelerometer", "gyro"):
-        sensor = roles.spec_sensor(spec, role)
-        if sensor is not None:
-            sensor.objname = "sensor_cube_site"
+    mount_sensors(spec, "sensor_cube", CUBE_MASS_KG, params["frequency_hz"],
+                  params["damping_ratio"],
+                  {"cube_x": [1, 0, 0], "cube_y": [0, 1, 0], "cube_z": [0, 0, 1]})
 
 
 CAUSE = Cause("sensor_mount", "the accelerometer cube resonates on its tape",
