@@ -64,12 +64,13 @@ MIN_RMS_RATIO = 1.10
 # The IMU's mount (assumed: where and how a recording's IMU is fixed is rarely published;
 # BorealTC's README gives "robot axes as recorded").  A sensor on a plate, a bracket or a
 # payload rail sways at tens of Hz: the lateral frequency from 10 Hz to the 45 Hz band
-# top, the damping ratio from 0.03 (a bolted bracket) to 0.3 (a foam or rubber pad), on a
-# log grid of each (6 x 2: each point one surrogate simulation per speed).  Its mass,
-# 0.1 kg (an IMU of the MEMS-in-a-box class), is 0.2 % of the Husky's: the mount reads
-# the body's motion without moving it, so a surrogate at the reference amplitudes is read
-# through the base-excited mount's transmissibility (checked against the simulated mount
-# in the tests) instead of simulated again.
+# top (6 log-spaced points); the damping ratio 0.03 and 0.1 (a bolted or clamped bracket;
+# a foam or rubber pad's ~0.3 is not offered; how these points were set: the notebook
+# docs/notebook-2026-12-06.md).  Each point costs one surrogate simulation per speed: 6 x 2
+# keeps one terrain's diagnosis under 3 minutes.  The mount's mass, 0.1 kg (an IMU of the
+# MEMS-in-a-box class), is 0.2 % of the Husky's: it reads the body's motion without moving
+# it, so a surrogate at the reference amplitudes is read through the base-excited mount's
+# transmissibility (checked against the simulated mount in the tests), not simulated again.
 MOUNT_FREQUENCIES_HZ = tuple(float(f) for f in np.geomspace(10.0, 45.0, 6))
 MOUNT_DAMPING_RATIOS = (0.03, 0.1)
 MOUNT_MASS_KG = 0.1
@@ -195,14 +196,16 @@ def tread_edit(order: int, depth_m: float):
     return edit
 
 
+# per candidate: what it adds, the reference amplitude its surrogates run at, and the
+# cause whose amplitudes are fitted (the mount adds a lateral mode to the drivetrain's)
 CANDIDATES = {
     "drivetrain": ("a transmission error repeating n times a wheel revolution (gear mesh, "
                    "belt teeth): the wheels surge ahead of and behind their motors",
-                   REFERENCE_ERROR_M, drivetrain_edit),
+                   REFERENCE_ERROR_M, "drivetrain"),
     "tread_lugs": ("a lugged tread: the wheels roll as polygons of n lugs",
-                   REFERENCE_LUG_DEPTH_M, None),
+                   REFERENCE_LUG_DEPTH_M, "tread_lugs"),
     "drivetrain + imu_mount": ("the drivetrain's error, read by an IMU whose mount sways "
-                               "sideways at one frequency", REFERENCE_ERROR_M, None),
+                               "sideways at one frequency", REFERENCE_ERROR_M, "drivetrain"),
 }
 
 
@@ -365,11 +368,10 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
     base_held = identify.rms(v for t in base_z["held_out"].values() for v in t.values())
     fits, models = [], {}
 
-    references = {}
 
     def line_fit(name, extra_edit=None, extra=None, reference_runs=None):
-        cause = "drivetrain" if name.startswith("drivetrain") else name
-        amplitudes, fitted, references[name] = fit_candidate(
+        cause = CANDIDATES[name][2]
+        amplitudes, fitted, reference = fit_candidate(
             cause, cases, order, fs, radius, nthread, motion_values, settings, extra_edit,
             reference_runs)
         z = {h: {t.name: _z(measured[h][t.name], t.model(fitted[t.name], h)) for t in cases}
@@ -377,22 +379,25 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
         key = "ripple_error_m" if cause == "drivetrain" else "lug_depth_m"
         parameters = {"order": order, key: amplitudes, **(extra or {})}
         return LineFit(name, parameters, z, len(amplitudes) + len(extra or {}),
-                       n_train), fitted
+                       n_train), fitted, reference
 
+    drivetrain_reference = None
     for name in CANDIDATES:
         if name == "drivetrain + imu_mount":
-            # every mount of the grid, its amplitudes refitted: the reference surrogates
-            # read through the mount's transmissibility, the fitted ones simulated; the
-            # mount kept is the one the training half prefers
+            # every mount of the grid, its amplitudes refitted: the drivetrain's reference
+            # surrogates read through the mount's transmissibility, the fitted ones
+            # simulated; the mount kept is the one the training half prefers
             trials = [line_fit(name, imu_mount_edit(f, d),
                                {"mount_frequency_hz": f, "mount_damping_ratio": d},
                                {t.name: [through_mount(v, speed, radius, f, d) for v, speed
-                                         in zip(references["drivetrain"][t.name], t.speeds)]
+                                         in zip(drivetrain_reference[t.name], t.speeds)]
                                 for t in cases})
                       for f in MOUNT_FREQUENCIES_HZ for d in MOUNT_DAMPING_RATIOS]
-            fit, fitted = min(trials, key=lambda trial: trial[0].train_error)
+            fit, fitted, _ = min(trials, key=lambda trial: trial[0].train_error)
         else:
-            fit, fitted = line_fit(name)
+            fit, fitted, reference = line_fit(name)
+            if name == "drivetrain":
+                drivetrain_reference = reference
         fits.append(fit)
         models[name] = fitted
     fits.sort(key=lambda f: f.score)
