@@ -208,6 +208,28 @@ def test_an_imu_mount_sways_sideways_at_its_frequency():
         0, abs=1.0)
 
 
+def test_every_straight_segment_is_read_at_a_surrogate_within_a_tenth_of_its_speed():
+    speeds = [0.23, 0.23, 0.24, 0.32, 0.44, 0.46, 0.47, 0.75, 0.78, 0.78]
+    centres, group = lines.speed_clusters(speeds)
+    assert len(centres) == 4
+    for v, g in zip(speeds, group):
+        assert abs(centres[g] / v - 1) <= lines.SPEED_TOLERANCE - 1
+    # a continuous sweep keeps the simulations to MAX_SPEEDS
+    centres, group = lines.speed_clusters(np.linspace(0.1, 1.0, 50))
+    assert len(centres) <= lines.MAX_SPEEDS and len(set(group)) == len(centres)
+
+
+def test_held_out_segments_faster_than_any_training_one_are_said():
+    class Terrain:
+        name = "ASPHALT"
+        segs = [{"half": h, "left_mps": v, "right_mps": v}
+                for h, v in (("fit", 0.23), ("fit", 0.47), ("held_out", 0.78))]
+    said = lines.speed_coverage(Terrain)
+    assert "0.78 m/s" in said and "0.47 m/s" in said
+    Terrain.segs = Terrain.segs[:2] + [{"half": "held_out", "left_mps": 0.5, "right_mps": 0.5}]
+    assert lines.speed_coverage(Terrain) is None
+
+
 def test_the_lug_count_is_the_line_whose_multiples_are_lines():
     assert lines.lug_count_of([4, 18, 19, 35, 36, 53, 54]) == 18
     assert lines.lug_count_of([18, 36, 54]) == 18

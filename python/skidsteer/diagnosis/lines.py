@@ -47,7 +47,14 @@ LINE_DB = 6.0  # a Welch bin of K >= 2 averages scatters by ~+-3 dB: 6 dB is cle
 MIN_LINE_POWER = 1e-6  # (1e-3 m/s^2)^2, a MEMS accelerometer's noise in one 0.2 Hz bin
 MIN_SEGMENTS = 5
 HARMONICS = 3
-SPEEDS = 3  # surrogate speeds: the medians of the straight segments' speed terciles
+# Surrogate speeds: the straight segments' speeds in clusters no wider than
+# SPEED_TOLERANCE (from a cluster's slowest segment), one surrogate at each cluster's
+# median.  A line's power rises at most as speed^4 (an imposed displacement, whose
+# acceleration grows as frequency^2), so a segment read at a surrogate within 10 % of its
+# speed errs by at most 40 log10(1.1) = 1.7 dB, inside MIN_LINE_DB.  At most MAX_SPEEDS
+# clusters (one simulation each per fit): a wider spread widens the tolerance.
+SPEED_TOLERANCE = 1.1
+MAX_SPEEDS = 6
 SURROGATE_S = 8.0
 # The reference amplitudes the surrogates run at (assumed, each well inside the linear
 # range the fit scales from): a transmission error of 0.1 mm at the rim per harmonic
@@ -209,13 +216,34 @@ CANDIDATES = {
 }
 
 
-def _speed_groups(segs: list[dict]) -> tuple[list[float], np.ndarray]:
-    speed = np.array([speed_of(r) for r in segs])
-    edges = np.quantile(speed, np.linspace(0, 1, SPEEDS + 1)[1:-1])
-    group = np.searchsorted(edges, speed, side="right")
-    speeds = [float(np.median(speed[group == g])) for g in sorted(set(group))]
-    relabel = {g: i for i, g in enumerate(sorted(set(group)))}
-    return speeds, np.array([relabel[g] for g in group])
+def speed_clusters(speeds) -> tuple[list[float], np.ndarray]:
+    """(the clusters' median speeds, each speed's cluster): speeds sorted and cut where one
+    exceeds its cluster's slowest by more than SPEED_TOLERANCE (widened so that there are
+    at most MAX_SPEEDS clusters)."""
+    speed = np.asarray(speeds, float)
+    tolerance = max(SPEED_TOLERANCE, (speed.max() / speed.min()) ** (1 / MAX_SPEEDS) * 1.0001)
+    group = np.empty(len(speed), int)
+    start, g = None, -1
+    for i in np.argsort(speed, kind="stable"):
+        if start is None or speed[i] > start * tolerance:
+            g, start = g + 1, speed[i]
+        group[i] = g
+    return [float(np.median(speed[group == k])) for k in range(g + 1)], group
+
+
+def speed_coverage(terrain) -> str | None:
+    """A sentence when a terrain's held-out straight segments are faster than every
+    training one by more than SPEED_TOLERANCE: the fit is then judged at speeds it never
+    saw (a line's frequency, and so what the robot's and the IMU's modes make of it,
+    moves with the speed)."""
+    fastest = {h: max((speed_of(s) for s in terrain.segs if s["half"] == h), default=None)
+               for h in ("fit", "held_out")}
+    if None in fastest.values() or fastest["held_out"] <= fastest["fit"] * SPEED_TOLERANCE:
+        return None
+    return (f"{terrain.name}'s held-out straight segments reach {fastest['held_out']:.2f} m/s, "
+            f"its training ones {fastest['fit']:.2f} m/s: the fit never sees the speeds it is "
+            f"judged at (straight runs at {fastest['held_out']:.2f} m/s among the training "
+            "runs would show it)")
 
 
 def _db(vibration: dict, order: int, axis: int) -> float:
@@ -233,7 +261,7 @@ class _Terrain:
     def __init__(self, name, setup, rows, targets):
         self.name, self.setup = name, setup
         self.segs = straight_segments(rows)
-        self.speeds, self.group = _speed_groups(self.segs)
+        self.speeds, self.group = speed_clusters([speed_of(r) for r in self.segs])
         self.targets = targets  # (order, axis)
 
     def measured(self, half):
@@ -412,7 +440,11 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
                                / (base_held ** 2 - noise ** 2))))
     name, named, reason = verdict(base_all, base_held, fits, noise, base_train=base_train,
                                   n_train=n_train, scale="the segments' scatter")
+    coverage = [c for c in map(speed_coverage, cases) if c]
+    if coverage and name != "explained":
+        reason = f"{reason}; {'; '.join(coverage)}"
     out.update(verdict=name, cause=named.cause if named else None, reason=reason,
+               speed_coverage=coverage,
                order=order, base={"train_error": base_train, "held_out_error": base_held},
                fits=[{"cause": f.cause, "parameters": f.parameters, "train_error": f.train_error,
                       "held_out_error": f.held_out_error, "score": f.score,
