@@ -221,6 +221,7 @@ def speed_clusters(speeds) -> tuple[list[float], np.ndarray]:
     exceeds its cluster's slowest by more than SPEED_TOLERANCE (widened so that there are
     at most MAX_SPEEDS clusters)."""
     speed = np.asarray(speeds, float)
+    # a hair above the ratio's MAX_SPEEDS-th root, so the fastest speed cannot open one more
     tolerance = max(SPEED_TOLERANCE, (speed.max() / speed.min()) ** (1 / MAX_SPEEDS) * 1.0001)
     group = np.empty(len(speed), int)
     start, g = None, -1
@@ -396,7 +397,6 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
     base_held = identify.rms(v for t in base_z["held_out"].values() for v in t.values())
     fits, models = [], {}
 
-
     def line_fit(name, extra_edit=None, extra=None, reference_runs=None):
         cause = CANDIDATES[name][2]
         amplitudes, fitted, reference = fit_candidate(
@@ -409,23 +409,21 @@ def diagnose(terrains: list[tuple], fs: float, radius: float, nthread: int,
         return LineFit(name, parameters, z, len(amplitudes) + len(extra or {}),
                        n_train), fitted, reference
 
-    drivetrain_reference = None
-    for name in CANDIDATES:
-        if name == "drivetrain + imu_mount":
-            # every mount of the grid, its amplitudes refitted: the drivetrain's reference
+    references = {}  # the rigidly mounted IMU's reference surrogates, per fitted cause
+    for name, (_, _, cause) in CANDIDATES.items():
+        if cause in references:  # the cause's rigid candidate came first: this one mounts it
+            # every mount of the grid, its amplitudes refitted: the cause's reference
             # surrogates read through the mount's transmissibility, the fitted ones
             # simulated; the mount kept is the one the training half prefers
             trials = [line_fit(name, imu_mount_edit(f, d),
                                {"mount_frequency_hz": f, "mount_damping_ratio": d},
                                {t.name: [through_mount(v, speed, radius, f, d) for v, speed
-                                         in zip(drivetrain_reference[t.name], t.speeds)]
+                                         in zip(references[cause][t.name], t.speeds)]
                                 for t in cases})
                       for f in MOUNT_FREQUENCIES_HZ for d in MOUNT_DAMPING_RATIOS]
             fit, fitted, _ = min(trials, key=lambda trial: trial[0].train_error)
         else:
-            fit, fitted, reference = line_fit(name)
-            if name == "drivetrain":
-                drivetrain_reference = reference
+            fit, fitted, references[cause] = line_fit(name)
         fits.append(fit)
         models[name] = fitted
     fits.sort(key=lambda f: f.score)
