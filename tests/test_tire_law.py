@@ -10,7 +10,7 @@ import pytest
 
 from tire_reference import (
     Kinematics, TireParams, advance, forces, friction_factors, friction_slopes, normal_force,
-    reset_state, sliding_factor)
+    reset_state, sliding_factor, step_force)
 
 NORMAL = 70.0  # N, about a quarter of the extended robot's weight
 P = TireParams()
@@ -222,3 +222,66 @@ def test_belt_and_tread_in_series():
     assert P.stiffness_x == P.belt_stiffness
     p = TireParams(tread_stiffness_x=3000.0, belt_stiffness=3000.0)
     assert p.stiffness_x == pytest.approx(1500.0)
+
+
+def _random_state(rng) -> np.ndarray:
+    state = np.zeros(6)
+    for k in (0, 3):
+        state[k + 2] = float(rng.integers(0, 2))
+        state[k] = rng.normal(0, 2e-3)
+        state[k + 1] = 0.0 if state[k + 2] else rng.normal(0, 0.05)
+    return state
+
+
+@pytest.mark.parametrize("contact_point", ["coulomb", "relay"])
+def test_substeps_are_the_fine_steps_and_their_mean_force(contact_point):
+    # n substeps of h / n with the slips held are n steps of the law at h / n: the same
+    # state, and the force the body receives is the mean of the n end-of-step forces
+    rng = np.random.default_rng(11)
+    for trial in range(200):
+        n = int(rng.integers(2, 30))
+        p = TireParams(contact_point=contact_point, contact_substeps=n,
+                       sliding_friction_ratio=0.6 if trial % 2 else 1.0)
+        fine = dataclasses.replace(p, contact_substeps=1)
+        k = loaded(slip_x=rng.normal(0, 0.05), slip_y=rng.normal(0, 0.05),
+                   rolling=rng.normal(0, 0.5))
+        state = _random_state(rng)
+        force, _ = step_force(p, k, 1e-3, state)
+        stepped, fine_forces = state.copy(), []
+        for _ in range(n):
+            advance(fine, k, 1e-3 / n, stepped)
+            fine_forces.append(forces(fine, k, stepped)[1:])
+        np.testing.assert_allclose(force[1:], np.mean(fine_forces, axis=0), rtol=1e-12,
+                                   atol=1e-12)
+        substepped = state.copy()
+        advance(p, k, 1e-3, substepped)
+        np.testing.assert_array_equal(substepped, stepped)
+
+
+@pytest.mark.parametrize("contact_point", ["coulomb", "relay"])
+def test_substeps_slope_is_the_derivative_of_the_mean_force(contact_point):
+    # the implicit coupling's Newton steps use d (mean force) / d u, carried through the
+    # substeps' states; it must be the derivative wherever the mean force is smooth (a
+    # kink where a substep changes regime is told by its one-sided differences differing)
+    rng = np.random.default_rng(12)
+    checked = 0
+    for trial in range(400):
+        p = TireParams(contact_point=contact_point, contact_substeps=int(rng.integers(2, 20)),
+                       sliding_friction_ratio=0.6 if trial % 2 else 1.0)
+        sx, sy = rng.normal(0, 0.02, 2)
+        state = _random_state(rng)
+        rolling = rng.normal(0, 0.5)
+        slope = step_force(p, loaded(slip_x=sx, slip_y=sy, rolling=rolling), 1e-3, state)[1]
+        for direction in (0, 1):
+            eps = 1e-7
+            f = [step_force(p, loaded(slip_x=sx + (e if direction == 0 else 0),
+                                      slip_y=sy + (e if direction == 1 else 0),
+                                      rolling=rolling), 1e-3, state)[0][1 + direction]
+                 for e in (-eps, 0.0, eps)]
+            right, left = (f[2] - f[1]) / eps, (f[1] - f[0]) / eps
+            # smooth here: both one-sided differences agree to 1e-4 of the larger
+            if abs(right - left) <= 1e-4 * max(abs(right), abs(left), 1.0):
+                assert slope[direction] == pytest.approx((right + left) / 2, rel=1e-4,
+                                                         abs=1e-3)
+                checked += 1
+    assert checked >= 400  # most draws are smooth: the comparison is not vacuous

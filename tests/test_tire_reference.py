@@ -196,6 +196,21 @@ def test_plugin_equals_reference_with_an_anisotropic_thesis_law(seed):
     assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
 
 
+@pytest.mark.parametrize("contact_point", ["coulomb", "relay"])
+@pytest.mark.parametrize("seed", range(3))
+def test_plugin_equals_reference_with_contact_substeps(seed, contact_point):
+    # the contact points on their own clock: 2-40 backward-Euler substeps per body step,
+    # the body given their mean force
+    rng = np.random.default_rng(500 + seed)
+    config = random_config(rng, contact_point=contact_point, falling=bool(seed % 2))
+    config["contact_substeps"] = str(int(rng.integers(2, 41)))
+    m = load_spec("extended", tire=config).compile()
+    ref = TireReference(m, TireParams.from_config(config))
+    assert ref.params.contact_substeps > 1
+    branches = compare(m, ref, rng, trials=60)
+    assert branches["linear"] >= 5 and branches["saturated"] >= 5, branches
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_plugin_equals_reference_with_the_thesis_relay(seed):
     # contact_point="relay": eq. 6.4 as the thesis simulated it

@@ -37,6 +37,8 @@ BAD_ATTRIBUTES = [
     ("lateral_friction_ratio", "12", "must lie in (0, 10]"),
     ("tread_lateral_friction_ratio", "-1", "must lie in (0, 10]"),
     ("damping_y", "abc", "is not a number"),
+    ("contact_substeps", "0", "must be a whole number in [1, 1000]"),
+    ("contact_substeps", "2.5", "must be a whole number in [1, 1000]"),
     ("stiffness_x_typo", "1", None),  # unknown key: rejected by the compiler
 ]
 
@@ -59,6 +61,14 @@ def test_bad_tire_attribute_fails_at_compile_time_naming_it(key, value, rule):
 def test_mu_kinetic_above_mu_static_names_both_values():
     with pytest.raises(ValueError, match=r'mu_kinetic="0\.99".*must not exceed mu_static'):
         skidsteer.load_model(tire={"mu_static": 0.9, "mu_kinetic": 0.99})
+
+
+def test_contact_substeps_need_the_implicit_coupling():
+    # the substeps' mean force is solved for by the implicit coupling; the explicit one
+    # applies the start-of-step force and has no use for them
+    with pytest.raises(ValueError, match=r'contact_substeps="10".*coupling="explicit"'):
+        skidsteer.load_model(tire={"coupling": "explicit", "contact_substeps": 10})
+    skidsteer.load_model(tire={"coupling": "implicit", "contact_substeps": 10})
 
 
 CHOICE_ATTRIBUTES = [a for a in tire.attributes().values() if a.kind == "choice"]

@@ -85,6 +85,9 @@ class TireParams:
     slip_law: str = _DEFAULTS["slip_law"]
     lateral_friction_ratio: float = _DEFAULTS["lateral_friction_ratio"]  # the floor's
     tread_lateral_friction_ratio: float = _DEFAULTS["tread_lateral_friction_ratio"]  # the tyre's
+    # the contact points' backward-Euler steps per body step (implicit coupling only);
+    # the body receives their mean force
+    contact_substeps: float = _DEFAULTS["contact_substeps"]
 
     def lateral_stiffness(self, normal: float) -> float:
         """K_y at normal load N > 0: K_y (N / N_0)^n."""
@@ -181,14 +184,24 @@ def forces(p: TireParams, k: Kinematics, state: np.ndarray) -> np.ndarray:
     return np.array([normal, fx, fy])
 
 
+def _chained_slope(damping, stiffness, h, dv, chain) -> float:
+    """d f / d u of the end-of-substep force, the state's derivatives carried in chain
+    ([d s / d u, d v / d u], updated in place) and d v' / d u = dv."""
+    chain[0] += h * (1 - dv)
+    chain[1] = dv
+    return -damping * (1 - dv) - stiffness * chain[0]
+
+
 def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, drive, h,
-                      st: np.ndarray, kinetic_slope: float = 0.0) -> float:
+                      st: np.ndarray, kinetic_slope: float = 0.0, chain=None) -> float:
     """One backward-Euler step of the contact point along one direction (in place).
 
     Sticking: v = 0 while |K s + D u| <= F_s.  Slipping: m dv/dt = K s + D (u - v)
     - F_k sign(v), ds/dt = u - v; it ends when the friction impulse stops v.
     Returns d f / d u of the end-of-step force f = -D (u - v') - K s' in the regime
-    the step ends in (kinetic_slope = d F_k / d u).
+    the step ends in (kinetic_slope = d F_k / d u); chain: [d s / d u, d v / d u]
+    carried from the earlier substeps of one step (updated), which the slope then
+    includes.
     """
     deflection, velocity = st[DEFLECTION], st[VELOCITY]
     spring_damper = damping + h * stiffness
@@ -196,8 +209,12 @@ def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, dri
         deflection_next = deflection + h * drive
         if abs(stiffness * deflection_next + damping * drive) <= static_limit:
             st[DEFLECTION], st[VELOCITY] = deflection_next, 0.0
+            if chain is not None:
+                return _chained_slope(damping, stiffness, h, 0.0, chain)
             return -spring_damper
         velocity = 0.0
+        if chain is not None:
+            chain[1] = 0.0
     a = mass + h * damping + h * h * stiffness
     velocity_free = (mass * velocity
                      + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a
@@ -213,11 +230,15 @@ def advance_direction(stiffness, damping, mass, static_limit, kinetic_limit, dri
         st[STUCK] = 1.0
     st[VELOCITY] = velocity_next
     st[DEFLECTION] = deflection + h * (drive - velocity_next)
+    if chain is not None:
+        dv = 0.0 if st[STUCK] > 0.5 else (
+            velocity_slope + (mass * chain[1] + h * stiffness * chain[0]) / a)
+        return _chained_slope(damping, stiffness, h, dv, chain)
     return -spring_damper * (1 - velocity_slope)
 
 
 def advance_direction_relay(stiffness, damping, mass, static_limit, kinetic_limit, drive, h,
-                            st: np.ndarray, kinetic_slope: float = 0.0) -> float:
+                            st: np.ndarray, kinetic_slope: float = 0.0, chain=None) -> float:
     """One step of eq. 6.4 as simulated in the thesis (in place).
 
     m_t dv/dt + D v = F' with F' = K s + D u while the relay is on, 0 while off;
@@ -233,14 +254,18 @@ def advance_direction_relay(stiffness, damping, mass, static_limit, kinetic_limi
     if off:
         velocity_next = mass * velocity / (mass + h * damping)
         velocity_slope = 0.0
+        carried = 0.0 if chain is None else mass * chain[1] / (mass + h * damping)
     else:
         a = mass + h * damping + h * h * stiffness
         velocity_next = (mass * velocity
                          + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a
         velocity_slope = h * (stiffness * h + damping) / a
+        carried = 0.0 if chain is None else (mass * chain[1] + h * stiffness * chain[0]) / a
     st[STUCK] = 1.0 if off else 0.0
     st[VELOCITY] = velocity_next
     st[DEFLECTION] = deflection + h * (drive - velocity_next)
+    if chain is not None:
+        return _chained_slope(damping, stiffness, h, velocity_slope + carried, chain)
     return -(damping + h * stiffness) * (1 - velocity_slope)
 
 
@@ -259,36 +284,56 @@ def sliding_factor(p: TireParams, k: Kinematics) -> tuple[float, tuple[float, fl
             (-2 * falling * k.slip_x / vs2, -2 * falling * k.slip_y / vs2))
 
 
-def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray) -> np.ndarray:
+def advance(p: TireParams, k: Kinematics, h: float, state: np.ndarray,
+            mean: np.ndarray | None = None) -> np.ndarray:
     """Advances one wheel's state (in place) by h seconds; returns the force slopes
-    (d f_x / d u_x, d f_y / d u_y) of the regime it ends in."""
+    (d f_x / d u_x, d f_y / d u_y) of the regime it ends in.  With contact_substeps
+    n > 1: n steps of h / n, the slips held, and the slopes are those of the mean
+    force over them, written into mean (f_x, f_y) when given."""
     normal = normal_force(p, k)
     if normal <= 0:
         reset_state(state)
+        if mean is not None:
+            mean[:] = 0.0
         return np.zeros(2)
     mu = friction_factors(p, k)
     mu_slope = friction_slopes(p, k)
     sliding, sliding_grad = sliding_factor(p, k)
     step = advance_direction_relay if p.contact_point == "relay" else advance_direction
+    n = max(1, int(p.contact_substeps))
     slopes = np.zeros(2)
     for direction, (stiffness, damping, drive) in enumerate((
             (p.stiffness_x, p.damping_x, k.slip_x),
             (p.lateral_stiffness(normal), p.damping_y, k.slip_y))):
-        slopes[direction] = step(
-            stiffness, damping, p.contact_mass,
-            p.mu_static * mu[direction] * normal,
-            p.mu_kinetic * mu[direction] * sliding * normal,
-            drive, h, state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR],
-            p.mu_kinetic * (mu_slope[direction] * sliding
-                            + mu[direction] * sliding_grad[direction]) * normal)
+        st = state[direction * NSTATE_DIR:(direction + 1) * NSTATE_DIR]
+        args = (stiffness, damping, p.contact_mass,
+                p.mu_static * mu[direction] * normal,
+                p.mu_kinetic * mu[direction] * sliding * normal)
+        kinetic_slope = p.mu_kinetic * (mu_slope[direction] * sliding
+                                        + mu[direction] * sliding_grad[direction]) * normal
+        if n == 1:
+            slopes[direction] = step(*args, drive, h, st, kinetic_slope)
+            continue
+        chain, force_sum, slope_sum = [0.0, 0.0], 0.0, 0.0
+        for _ in range(n):
+            slope_sum += step(*args, drive, h / n, st, kinetic_slope, chain)
+            force_sum += -damping * (drive - st[VELOCITY]) - stiffness * st[DEFLECTION]
+        slopes[direction] = slope_sum / n
+        if mean is not None:
+            mean[direction] = force_sum / n
     return slopes
 
 
 def step_force(p: TireParams, k: Kinematics, h: float, state: np.ndarray):
-    """([N, f_x, f_y] at the end of a step whose rim slips are k's, slopes); state kept."""
+    """([N, f_x, f_y] over a step whose rim slips are k's, slopes); state kept.  The
+    force at the step's end, or with contact_substeps > 1 the substeps' mean."""
     after = np.array(state, dtype=float)
-    slopes = advance(p, k, h, after)
-    return forces(p, k, after), slopes
+    mean = np.zeros(2)
+    slopes = advance(p, k, h, after, mean)
+    out = forces(p, k, after)
+    if p.contact_substeps > 1 and out[0] > 0:
+        out[1:] = mean
+    return out, slopes
 
 
 # --------------------------------------------------------------- kinematics

@@ -37,6 +37,8 @@ typedef struct {
                            //   floor's ratio times the tread's
   int relay;               // 0: Coulomb contact point (eq. 4.9/4.13, kinetic friction kept);
                            // 1: eq. 6.4 as the thesis simulated it (relay, no kinetic friction)
+  int contact_substeps;    // the contact points' steps per body step (1: one, the
+                           //   step's own); the force is their mean (the same impulse)
 } tireParams;
 
 // Per-direction contact-point state, stored in plugin_state.
@@ -76,12 +78,13 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 // Advance one wheel's contact-point state by h seconds, implicitly.
 void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state);
 
-// The force [N, f_x, f_y] on the wheel at the end of a step of h seconds in
-// which the rim slips at k->slip_x, k->slip_y (the contact-point state
-// advanced from `state`, which is left unchanged), and slope[d] = d f_d / d u_d
-// within the regime (stick, slip, relay on/off) that the step ends in.  The
-// implicit coupling of tire_implicit.c solves for the slips at which these
-// forces move the robot.
+// The force [N, f_x, f_y] on the wheel over a step of h seconds in which the rim
+// slips at k->slip_x, k->slip_y (the contact-point state advanced from `state`,
+// which is left unchanged): the force at the end of the step, or with
+// contact_substeps > 1 the mean of the force at the end of each substep (the
+// substeps' impulse over h); slope[d] = d f_d / d u_d within the regimes (stick,
+// slip, relay on/off) the substeps end in.  The implicit coupling of
+// tire_implicit.c solves for the slips at which these forces move the robot.
 void tire_step_force(const tireParams* p, const tireKinematics* k, mjtNum h,
                      const mjtNum* state, mjtNum force[3], mjtNum slope[2]);
 

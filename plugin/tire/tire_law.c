@@ -180,9 +180,15 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 // f = -D (u - v') - K s' within the regime the step ends in, with
 // kinetic_slope = d kinetic_limit / d drive (the slip-dependent friction of
 // eq. 4.12): the stiffness the implicit coupling of tire_implicit.c needs.
+//
+// chain: when not NULL, the state's derivatives [d s / d drive, d v / d drive]
+// from the earlier substeps of the same step, carried through this one (a
+// step of several substeps, the drive held); *slope then receives d f / d drive
+// with them: -D (1 - d v' / d drive) - K d s' / d drive.
 static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
                               mjtNum static_limit, mjtNum kinetic_limit, mjtNum kinetic_slope,
-                              mjtNum drive, mjtNum h, mjtNum* st, mjtNum* slope) {
+                              mjtNum drive, mjtNum h, mjtNum* st, mjtNum* slope,
+                              mjtNum* chain) {
   mjtNum deflection = st[TIRE_DEFLECTION];
   mjtNum velocity = st[TIRE_VELOCITY];
   mjtNum spring_damper = damping + h * stiffness;  // -d f / d (u - v') at fixed s
@@ -193,10 +199,17 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
     if (fabs(holding) <= static_limit) {
       st[TIRE_DEFLECTION] = deflection_next;
       st[TIRE_VELOCITY] = 0;
-      if (slope) *slope = -spring_damper;
+      if (chain) {
+        chain[0] += h;
+        chain[1] = 0;
+        if (slope) *slope = -damping - stiffness * chain[0];
+      } else if (slope) {
+        *slope = -spring_damper;
+      }
       return;
     }
     velocity = 0;  // breaks away from rest
+    if (chain) chain[1] = 0;
   }
 
   // backward Euler for (s, v), friction as an impulse that cannot reverse v
@@ -218,7 +231,16 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
   }
   st[TIRE_VELOCITY] = velocity_next;
   st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
-  if (slope) *slope = -spring_damper * (1 - velocity_slope);
+  if (chain) {
+    // velocity_slope above is this substep's alone: add what the state carried in
+    mjtNum dv = st[TIRE_STUCK] > 0.5 ? 0
+                : velocity_slope + (mass * chain[1] + h * stiffness * chain[0]) / a;
+    chain[0] += h * (1 - dv);
+    chain[1] = dv;
+    if (slope) *slope = -damping * (1 - dv) - stiffness * chain[0];
+  } else if (slope) {
+    *slope = -spring_damper * (1 - velocity_slope);
+  }
 }
 
 
@@ -233,7 +255,7 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
 static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mass,
                                     mjtNum static_limit, mjtNum kinetic_limit,
                                     mjtNum kinetic_slope, mjtNum drive, mjtNum h, mjtNum* st,
-                                    mjtNum* slope) {
+                                    mjtNum* slope, mjtNum* chain) {
   (void)kinetic_slope;  // the relay's limits only switch it; they never enter the force
   mjtNum deflection = st[TIRE_DEFLECTION];
   mjtNum velocity = st[TIRE_VELOCITY];
@@ -245,16 +267,26 @@ static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mas
     off = 1;
   }
   mjtNum velocity_next, velocity_slope;
+  mjtNum carried;  // d v' / d drive from the state carried in (chain)
   if (off) {
     velocity_next = mass * velocity / (mass + h * damping);
     velocity_slope = 0;
+    carried = chain ? mass * chain[1] / (mass + h * damping) : 0;
   } else {
     mjtNum a = mass + h * damping + h * h * stiffness;
     velocity_next = (mass * velocity
                      + h * (stiffness * deflection + (stiffness * h + damping) * drive)) / a;
     velocity_slope = h * (stiffness * h + damping) / a;
+    carried = chain ? (mass * chain[1] + h * stiffness * chain[0]) / a : 0;
   }
-  if (slope) *slope = -(damping + h * stiffness) * (1 - velocity_slope);
+  if (chain) {
+    mjtNum dv = velocity_slope + carried;
+    chain[0] += h * (1 - dv);
+    chain[1] = dv;
+    if (slope) *slope = -damping * (1 - dv) - stiffness * chain[0];
+  } else if (slope) {
+    *slope = -(damping + h * stiffness) * (1 - velocity_slope);
+  }
   st[TIRE_STUCK] = off;
   st[TIRE_VELOCITY] = velocity_next;
   st[TIRE_DEFLECTION] = deflection + h * (drive - velocity_next);
@@ -287,12 +319,16 @@ static mjtNum sliding_factor(const tireParams* p, const tireKinematics* k, mjtNu
 }
 
 
+// Advances one wheel's state by h; slope (when not NULL): d f_d / d u_d; mean
+// (when not NULL and contact_substeps > 1): each direction's mean force over the
+// substeps, the force whose impulse over h is theirs.
 static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h,
-                          mjtNum* state, mjtNum* slope) {
+                          mjtNum* state, mjtNum* slope, mjtNum* mean) {
   mjtNum normal = tire_normal_force(p, k);
   if (normal <= 0) {
     tire_reset_state(state);  // unloaded tire relaxes; it lands undeflected
     if (slope) slope[0] = slope[1] = 0;
+    if (mean) mean[0] = mean[1] = 0;
     return;
   }
   mjtNum mu[2], mu_slope[2] = {0, 0};
@@ -302,23 +338,40 @@ static void advance_wheel(const tireParams* p, const tireKinematics* k, mjtNum h
   const mjtNum stiffness[2] = {p->stiffness_x, tire_lateral_stiffness(p, normal)};
   const mjtNum damping[2] = {p->damping_x, p->damping_y};
   const mjtNum drive[2] = {k->slip_x, k->slip_y};
+  int n = p->contact_substeps > 1 ? p->contact_substeps : 1;
   for (int dir = 0; dir < TIRE_NDIR; dir++) {
     // eq. 4.10: static and kinetic limits scale with the slip factor
     void (*step)(mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum, mjtNum*,
-                 mjtNum*) = p->relay ? advance_direction_relay : advance_direction;
+                 mjtNum*, mjtNum*) = p->relay ? advance_direction_relay : advance_direction;
     // d (mu sliding) / d u within the branch taken (the cross-direction term of
     // the sliding speed is left to the coupling's line search)
     mjtNum kinetic_slope = mu_slope[dir] * sliding + mu[dir] * sliding_grad[dir];
-    step(stiffness[dir], damping[dir], p->contact_mass,
-         p->mu_static * mu[dir] * normal, p->mu_kinetic * mu[dir] * sliding * normal,
-         p->mu_kinetic * kinetic_slope * normal, drive[dir], h,
-         state + dir * TIRE_NSTATE_DIR, slope ? slope + dir : NULL);
+    mjtNum static_limit = p->mu_static * mu[dir] * normal;
+    mjtNum kinetic_limit = p->mu_kinetic * mu[dir] * sliding * normal;
+    mjtNum* st = state + dir * TIRE_NSTATE_DIR;
+    if (n == 1) {
+      step(stiffness[dir], damping[dir], p->contact_mass, static_limit, kinetic_limit,
+           p->mu_kinetic * kinetic_slope * normal, drive[dir], h, st,
+           slope ? slope + dir : NULL, NULL);
+      continue;
+    }
+    // the contact point on its own clock: n substeps of h / n, the rim's slip held
+    mjtNum chain[2] = {0, 0}, force_sum = 0, slope_sum = 0, substep_slope = 0;
+    for (int i = 0; i < n; i++) {
+      step(stiffness[dir], damping[dir], p->contact_mass, static_limit, kinetic_limit,
+           p->mu_kinetic * kinetic_slope * normal, drive[dir], h / n, st,
+           &substep_slope, chain);
+      force_sum += direction_force(stiffness[dir], damping[dir], drive[dir], st);
+      slope_sum += substep_slope;
+    }
+    if (slope) slope[dir] = slope_sum / n;
+    if (mean) mean[dir] = force_sum / n;
   }
 }
 
 
 void tire_advance(const tireParams* p, const tireKinematics* k, mjtNum h, mjtNum* state) {
-  advance_wheel(p, k, h, state, NULL);
+  advance_wheel(p, k, h, state, NULL, NULL);
 }
 
 
@@ -326,8 +379,13 @@ void tire_step_force(const tireParams* p, const tireKinematics* k, mjtNum h,
                      const mjtNum* state, mjtNum force[3], mjtNum slope[2]) {
   mjtNum next[TIRE_NSTATE_WHEEL];
   for (int i = 0; i < TIRE_NSTATE_WHEEL; i++) next[i] = state[i];
-  advance_wheel(p, k, h, next, slope);
+  mjtNum mean[2];
+  advance_wheel(p, k, h, next, slope, mean);
   tire_forces(p, k, next, force);  // the spring-damper force at the end of the step
+  if (p->contact_substeps > 1 && force[0] > 0) {
+    force[1] = mean[TIRE_DIR_X];
+    force[2] = mean[TIRE_DIR_Y];
+  }
 }
 
 
