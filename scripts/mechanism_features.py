@@ -140,6 +140,9 @@ def candidates() -> list[Candidate]:
     for name in ("ground_roughness", "wheel_eccentricity"):
         out.append(Candidate(f"calibrated_frame+{name}", (frame, forced[name]),
                              f"the calibrated frame and {name} at its prior's middle"))
+    out.append(Candidate("calibrated_frame+falling_friction",
+                         (frame, mechanism(strongest, "falling", tire=falling[strongest])),
+                         f"the calibrated frame and {strongest}"))
     # not a mechanism but the base model with its belt couplings at the rigid limit the
     # thesis assumes (Assumption 4; docs/reproduction/belt_coupling.md)
     out.append(Candidate("rigid_belts", (mechanism("base", "base"),),

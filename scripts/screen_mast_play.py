@@ -16,7 +16,9 @@ clamp that slips above a moment (microslip, Iwan or Jenkins elements) softens wi
 so it would slip in the free responses before it slipped in a swivel: the reverse of
 what the thesis's robot does.  A gap works by angle, and the soft frame's swivel angles
 at <= 45 deg/s (1.8 mrad at the peak) lie below the calibrated frame's free-response
-roll (5.5 mrad), so a gap between them is stiff when tapped and soft when swung.
+roll (5.5 mrad), so a gap between them would be stiff when tapped and soft when swung.
+Measured (docs/notebook-2026-12-07.md): the robot shakes from a gap of ~2 mrad with 1 %
+of damping in it, but any gap from 0.05 mrad takes the yaw free response off Table 5.2.
 
     python scripts/screen_mast_play.py [--gaps 0.5 1 2 4]   # mrad; Table 5.2 per gap
         [--residual-damping 0.01] [--swivel 45 64]        # and the swivel per gap
