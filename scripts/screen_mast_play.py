@@ -62,19 +62,20 @@ SWIVEL_TIMESTEP_S = 2.5e-5  # the screen's converged step for the steady swivel
 
 def mast_play_edit(gap_rad: float, residual_n_m_per_rad: float = RESIDUAL_N_M_PER_RAD,
                    residual_damping_ratio: float = RESIDUAL_DAMPING_RATIO):
-    """The MjSpec edit: elastic and play hinges in series at the mast's foot (gap 0: the
-    elastic hinges alone, the calibrated frame)."""
+    """The MjSpec edit: the calibrated frame's hinges (mast_compliance) and, in series
+    with each, a play hinge (gap 0: the calibrated frame alone)."""
+    mast = causes.get("mast_compliance")
+    elastic = mast.parameters(ELASTIC_ROLL_N_M_PER_RAD,
+                              {PITCH_STIFFNESS_RATIO.name: ELASTIC_PITCH_RATIO,
+                               DAMPING_RATIO.name: ELASTIC_DAMPING_RATIO})
+
     def edit(spec: mujoco.MjSpec) -> None:
+        mast.apply(spec, elastic)
+        if gap_rad <= 0:
+            return
         frame = causes.part(spec, "mast", "mast_play")
         inertia = frame_inertia_about_foot(frame)
-        elastic = (ELASTIC_ROLL_N_M_PER_RAD, ELASTIC_ROLL_N_M_PER_RAD * ELASTIC_PITCH_RATIO)
         for i, (axis, name) in enumerate((([1, 0, 0], "frame_roll"), ([0, 1, 0], "frame_pitch"))):
-            frame.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis,
-                            stiffness=elastic[i],
-                            damping=causes.critical_damping(elastic[i], inertia[i],
-                                                            ELASTIC_DAMPING_RATIO))
-            if gap_rad <= 0:
-                continue
             frame.add_joint(name=f"{name}_play", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis,
                             stiffness=residual_n_m_per_rad,
                             damping=causes.critical_damping(residual_n_m_per_rad, inertia[i],
