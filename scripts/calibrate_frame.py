@@ -59,7 +59,12 @@ PREDICT_TIMESTEP_S = 2.5e-5  # the screen's converged step for the steady swivel
 def free_responses(params: dict | None) -> dict:
     """axis -> {refined_peak_hz, decay_per_s} of the extended robot with this frame (None:
     rigid), as reproduction.py measures them."""
-    edit = None if params is None else (lambda spec: MAST.apply(spec, params, 1))
+    return free_responses_of(None if params is None else
+                             (lambda spec: MAST.apply(spec, params, 1)))
+
+
+def free_responses_of(edit) -> dict:
+    """free_responses of the extended robot under any MjSpec edit (None: as built)."""
     out = {}
     for axis in AXES:
         r = free_response(axis, edit=edit)

@@ -34,22 +34,21 @@ import mujoco
 import numpy as np
 
 import calibrate_frame  # scripts/, beside this file (Table 5.2's free responses, score)
+from mechanism_features import CALIBRATED_FRAME  # the frame that fits Table 5.2 best
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.causes.mast_compliance import (
     DAMPING_RATIO, PITCH_STIFFNESS_RATIO, frame_inertia_about_foot)
-from skidsteer.experiments.free_response import FREE_RESPONSE_TIMESTEP_S, free_response, release
+from skidsteer.experiments.free_response import FREE_RESPONSE_TIMESTEP_S, release
 from skidsteer.features.extract import swivel_features
 from skidsteer.robot import Setup, load_model
 from skidsteer.simulation.drive import DriveGeometry
 from skidsteer.simulation.run import run_commanded, settle
 
-# the calibrated frame (docs/reproduction/frame_calibration.md's best fit to Table 5.2)
-ELASTIC_ROLL_N_M_PER_RAD = 3000.0
-ELASTIC_PITCH_RATIO = 10.0
-ELASTIC_DAMPING_RATIO = 0.1
-# the frame that lifts a wheel from 64 deg/s (Table 5.2 excludes it on its own)
+MAST = causes.get("mast_compliance")
+# the frame that lifts a wheel from 64 deg/s (mechanism_features' lifting_frame: its
+# stiffness prior's middle at the damping prior's low end; Table 5.2 excludes it alone)
 RESIDUAL_N_M_PER_RAD = 548.0
-RESIDUAL_DAMPING_RATIO = 0.01
+RESIDUAL_DAMPING_RATIO = DAMPING_RATIO.low
 # the clamp between the two hinges: both turn about one axis through one point, so the
 # play hinge carries the clamp plate's own inertia (armature; assumed: 1 % of the frame's
 # ~0.5 kg m^2, its internal mode at sqrt((K_e + K_r) / J) ~ 130 Hz, above the 50 Hz band)
@@ -60,17 +59,24 @@ STOP_TIMECONST_S = 0.002
 SWIVEL_TIMESTEP_S = 2.5e-5  # the screen's converged step for the steady swivel
 
 
+def calibrated_frame(stiffness: float = CALIBRATED_FRAME["stiffness_n_m_per_rad"],
+                     pitch_ratio: float = CALIBRATED_FRAME[PITCH_STIFFNESS_RATIO.name],
+                     damping_ratio: float = CALIBRATED_FRAME[DAMPING_RATIO.name]):
+    """mast_compliance's frame hinges as an MjSpec edit (by default the frame that fits
+    Table 5.2 best, mechanism_features.CALIBRATED_FRAME)."""
+    params = MAST.parameters(stiffness, {PITCH_STIFFNESS_RATIO.name: pitch_ratio,
+                                         DAMPING_RATIO.name: damping_ratio})
+    return lambda spec: MAST.apply(spec, params)
+
+
 def mast_play_edit(gap_rad: float, residual_n_m_per_rad: float = RESIDUAL_N_M_PER_RAD,
                    residual_damping_ratio: float = RESIDUAL_DAMPING_RATIO):
-    """The MjSpec edit: the calibrated frame's hinges (mast_compliance) and, in series
-    with each, a play hinge (gap 0: the calibrated frame alone)."""
-    mast = causes.get("mast_compliance")
-    elastic = mast.parameters(ELASTIC_ROLL_N_M_PER_RAD,
-                              {PITCH_STIFFNESS_RATIO.name: ELASTIC_PITCH_RATIO,
-                               DAMPING_RATIO.name: ELASTIC_DAMPING_RATIO})
+    """The MjSpec edit: the calibrated frame's hinges and, in series with each, a play
+    hinge (gap 0: the calibrated frame alone)."""
+    elastic = calibrated_frame()
 
     def edit(spec: mujoco.MjSpec) -> None:
-        mast.apply(spec, elastic)
+        elastic(spec)
         if gap_rad <= 0:
             return
         frame = causes.part(spec, "mast", "mast_play")
@@ -86,18 +92,9 @@ def mast_play_edit(gap_rad: float, residual_n_m_per_rad: float = RESIDUAL_N_M_PE
     return edit
 
 
-def table_5_2(edit) -> dict:
-    """axis -> {refined_peak_hz, decay_per_s} of the extended robot with this edit."""
-    out = {}
-    for axis in calibrate_frame.AXES:
-        r = free_response(axis, edit=edit)
-        out[axis] = {key: float(r[key]) for key in ("refined_peak_hz", "decay_per_s")}
-    return out
-
-
 def swivel(edit, omega_deg_s: float) -> str:
     """The extended build on concrete swivelling at omega (20 s at the screen's step):
-    its steady a_y amplitude and how often a wheel is off the floor."""
+    its steady a_y amplitude and mean yaw rate after the first 3 s."""
     m = load_model(Setup(build="extended", floor="concrete"), timestep=SWIVEL_TIMESTEP_S,
                    edit=edit)
     run = run_commanded(m, 0.0, omega_deg_s, 20.0)
@@ -107,14 +104,11 @@ def swivel(edit, omega_deg_s: float) -> str:
             f"{np.rad2deg(run.gyro[run.time_s >= 3, 2].mean()):.1f} deg/s")
 
 
-def foot_loads(stiffness: float, pitch_ratio: float, damping_ratio: float,
-               omegas: list[float]) -> list[str]:
-    """Peak moment (N m) and angle (mrad) of the mast_compliance frame's roll and pitch
-    hinges: in the roll and pitch free responses (Sec. 6.2's release, the free responses'
-    step) and in 12 s swivels on concrete (the last three quarters, about their mean)."""
-    mast = causes.get("mast_compliance")
-    params = mast.parameters(stiffness, {PITCH_STIFFNESS_RATIO.name: pitch_ratio,
-                                         DAMPING_RATIO.name: damping_ratio})
+def foot_loads(edit, omegas: list[float]) -> list[str]:
+    """Peak moment (N m) and angle (mrad) of the frame's roll and pitch hinges under
+    `edit` (calibrated_frame's): in the roll and pitch free responses (Sec. 6.2's release,
+    the free responses' step) and in 12 s swivels on concrete (the last three quarters,
+    about their mean)."""
     setup = Setup(build="extended", floor="concrete")
 
     def loads(m, d, ctrl, nstep, skip):
@@ -134,15 +128,13 @@ def foot_loads(stiffness: float, pitch_ratio: float, damping_ratio: float,
 
     out = []
     for axis in ("roll", "pitch"):
-        m = load_model(setup, timestep=FREE_RESPONSE_TIMESTEP_S,
-                       edit=lambda spec: mast.apply(spec, params))
+        m = load_model(setup, timestep=FREE_RESPONSE_TIMESTEP_S, edit=edit)
         d = mujoco.MjData(m)
         settle(m, d, 2.0)
         release(m, d, axis)
         out.append(f"free response {axis}: " + loads(m, d, None, int(2.0 / m.opt.timestep), 0))
     for omega in omegas:
-        m = load_model(setup, timestep=SWIVEL_TIMESTEP_S,
-                       edit=lambda spec: mast.apply(spec, params))
+        m = load_model(setup, timestep=SWIVEL_TIMESTEP_S, edit=edit)
         d = mujoco.MjData(m)
         settle(m, d, 2.0)
         nstep = int(12.0 / m.opt.timestep)
@@ -164,11 +156,10 @@ def main(argv=None) -> int:
                          "these omega (deg/s), on the calibrated and the lifting frame")
     args = ap.parse_args(argv)
     if args.loads is not None:
-        for label, frame in (("calibrated frame", (ELASTIC_ROLL_N_M_PER_RAD, ELASTIC_PITCH_RATIO,
-                                                   ELASTIC_DAMPING_RATIO)),
-                             ("lifting frame", (RESIDUAL_N_M_PER_RAD, 1.0,
-                                                RESIDUAL_DAMPING_RATIO))):
-            for line in foot_loads(*frame, args.loads):
+        for label, edit in (("calibrated frame", calibrated_frame()),
+                            ("lifting frame", calibrated_frame(RESIDUAL_N_M_PER_RAD, 1.0,
+                                                               RESIDUAL_DAMPING_RATIO))):
+            for line in foot_loads(edit, args.loads):
                 print(f"{label}: {line}", flush=True)
         return 0
     print("| gap (mrad) | roll Hz, decay 1/s | pitch | yaw | largest frequency error | "
@@ -176,7 +167,7 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|---|")
     for gap in args.gaps:
         edit = mast_play_edit(gap * 1e-3, residual_damping_ratio=args.residual_damping)
-        responses = table_5_2(edit)
+        responses = calibrate_frame.free_responses_of(edit)
         freq, decay, total = calibrate_frame.score(responses)
         cells = [f"{responses[a]['refined_peak_hz']:.2f}, {responses[a]['decay_per_s']:.2f}"
                  for a in calibrate_frame.AXES]

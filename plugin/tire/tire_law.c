@@ -161,6 +161,16 @@ void tire_forces(const tireParams* p, const tireKinematics* k, const mjtNum* sta
 }
 
 
+// One substep's end-of-substep slope d f / d drive, the state's derivatives carried in
+// chain ([d s / d drive, d v / d drive], updated) and d v' / d drive = dv.
+static mjtNum chained_slope(mjtNum stiffness, mjtNum damping, mjtNum h, mjtNum dv,
+                            mjtNum* chain) {
+  chain[0] += h * (1 - dv);
+  chain[1] = dv;
+  return -damping * (1 - dv) - stiffness * chain[0];
+}
+
+
 // One implicit (backward Euler) step of the contact point along one direction.
 //
 // The contact point, mass m_t, is tied to the wheel rim by the spring K and
@@ -200,9 +210,8 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
       st[TIRE_DEFLECTION] = deflection_next;
       st[TIRE_VELOCITY] = 0;
       if (chain) {
-        chain[0] += h;
-        chain[1] = 0;
-        if (slope) *slope = -damping - stiffness * chain[0];
+        mjtNum chained = chained_slope(stiffness, damping, h, 0, chain);
+        if (slope) *slope = chained;
       } else if (slope) {
         *slope = -spring_damper;
       }
@@ -235,9 +244,8 @@ static void advance_direction(mjtNum stiffness, mjtNum damping, mjtNum mass,
     // velocity_slope above is this substep's alone: add what the state carried in
     mjtNum dv = st[TIRE_STUCK] > 0.5 ? 0
                 : velocity_slope + (mass * chain[1] + h * stiffness * chain[0]) / a;
-    chain[0] += h * (1 - dv);
-    chain[1] = dv;
-    if (slope) *slope = -damping * (1 - dv) - stiffness * chain[0];
+    mjtNum chained = chained_slope(stiffness, damping, h, dv, chain);
+    if (slope) *slope = chained;
   } else if (slope) {
     *slope = -spring_damper * (1 - velocity_slope);
   }
@@ -280,10 +288,8 @@ static void advance_direction_relay(mjtNum stiffness, mjtNum damping, mjtNum mas
     carried = chain ? (mass * chain[1] + h * stiffness * chain[0]) / a : 0;
   }
   if (chain) {
-    mjtNum dv = velocity_slope + carried;
-    chain[0] += h * (1 - dv);
-    chain[1] = dv;
-    if (slope) *slope = -damping * (1 - dv) - stiffness * chain[0];
+    mjtNum chained = chained_slope(stiffness, damping, h, velocity_slope + carried, chain);
+    if (slope) *slope = chained;
   } else if (slope) {
     *slope = -(damping + h * stiffness) * (1 - velocity_slope);
   }
