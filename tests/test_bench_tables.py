@@ -31,9 +31,16 @@ def _body(markdown: str) -> list[str]:
 
 
 def _draws_from(markdown: str) -> list[str]:
-    """The --draws-from the committed table was generated with, as arguments."""
-    found = re.search(r"--draws-from (\d+)", markdown.split("\n\n")[1])
-    return ["--draws-from", found.group(1)] if found else []
+    """The --draws-from, --ceiling and --rates-from the committed table was generated
+    with, as arguments."""
+    command = markdown.split("\n\n")[1]
+    out = []
+    for option in ("--draws-from", "--ceiling", "--rates-from"):
+        found = re.search(option + r" (\S+?)[` ]", command)
+        if found:
+            value = found.group(1)
+            out += [option, str(REPO / value) if option == "--ceiling" else value]
+    return out
 
 
 @pytest.mark.parametrize("name", ["generalisation", "ceiling"])
@@ -175,3 +182,96 @@ def test_rigid_belts_stiffen_the_belt_couplings_only():
     # nothing else of the model moves
     np.testing.assert_array_equal(rigid.body_mass, shipped.body_mass)
     assert rigid.opt.timestep == shipped.opt.timestep
+
+
+def _missed_with_proposal(rows: dict, separation: float) -> dict:
+    """A committed row that names its hidden cause, turned into a miss whose report
+    proposes a swivel `separation` RMS z apart (the verdict made unexplained by a
+    ranking the rules cannot name from)."""
+    right = next(r for r in rows.values() if row_outcome(r) == "right"
+                 and r["effect"] in causes.CAUSES and "ranking" in r and "base_train" in r)
+    return {**right, "ranking": [], "verdict": "unexplained", "cause": None,
+            "next_command_purpose": "separate",
+            "next_commands": [{"command": "v0-w60", "omega_deg_s": 60.0,
+                               "separation": separation}]}
+
+
+def test_the_loop_counts_the_second_verdict_only_where_a_command_was_worth_recording():
+    """(c): a row whose report proposes a command worth recording counts the diagnosis
+    made with that command held out; one whose proposal is below the limit counts its
+    first verdict (the report says no swivel would tell); one that should have followed
+    and did not is not counted."""
+    from skidsteer.diagnosis.benchmark_rows import loop_outcome, proposal_to_follow
+    from skidsteer.diagnosis.verdict import Z_CONSISTENT
+
+    with (DOCS / "diagnose-generalisation.jsonl").open() as f:
+        rows = {r["case"]: r for r in map(json.loads, f)}
+    named = next(r for r in rows.values() if row_outcome(r) == "right"
+                 and r["effect"] in causes.CAUSES and "ranking" in r and "base_train" in r)
+    below = _missed_with_proposal(rows, Z_CONSISTENT - 0.01)
+    assert proposal_to_follow(below) is None and loop_outcome(below) == "missed"
+    above = _missed_with_proposal(rows, Z_CONSISTENT)
+    assert proposal_to_follow(above)["command"] == "v0-w60"
+    assert loop_outcome(above) is None  # not followed: unknown, not a miss
+    assert loop_outcome({**above, "loop": named}) == "right"
+    assert loop_outcome({**above, "loop": above}) == "missed"
+    old = {k: v for k, v in named.items() if k not in ("next_commands", "loop")}
+    assert loop_outcome(old) is None  # written before proposals were kept
+
+
+def test_three_rates_count_each_rate_on_its_own_rows():
+    from skidsteer.diagnosis.benchmark_rows import rate_interval, three_rates
+
+    with (DOCS / "diagnose-generalisation.jsonl").open() as f:
+        rows = {r["case"]: r for r in map(json.loads, f)}
+    right = next(r for r in rows.values() if row_outcome(r) == "right"
+                 and r["effect"] in causes.CAUSES and "ranking" in r and "base_train" in r)
+    right = {**right, "next_commands": []}  # as a row written with the loop keeps them
+    missed = _missed_with_proposal(rows, 3.0)
+    missed = {**missed, "case": "x", "effect": right["effect"]}
+    other = next(c for c in sorted(causes.CAUSES) if c != right["effect"])
+    wrong_after = {**missed, "case": "y", "loop": {**right, "effect": other}}
+    rates = three_rates([right, missed, wrong_after], truths={})
+    mine = rates[right["effect"]]
+    assert mine["named"] == (1, 3)
+    assert mine["ceiling"] == (0, 0)  # no ceiling rows given
+    assert mine["loop"] == (1, 2)  # "x" did not follow its proposal; "y" did, and named wrong
+    assert mine["followed"] == 1 and mine["wrong"] == 1
+    assert rates["all"]["named"] == (1, 3)
+    low, high = rate_interval(1, 3)
+    assert 0.0 < low < 1 / 3 < high < 1.0
+    assert rate_interval(0, 0) is None
+    # Clopper-Pearson's 95 % interval of 17 of 20 (a textbook value: 0.621-0.968)
+    assert rate_interval(17, 20) == pytest.approx((0.621, 0.968), abs=1e-3)
+
+
+def test_following_a_proposal_diagnoses_the_draw_with_the_command_added_and_held_out(
+        monkeypatch, tmp_path):
+    calls = []
+
+    def run_case(case, out, trials, duration_s, threads, search_starts, timestep,
+                 model_spread, rough_floor_normal, held_out=None, loop=False):
+        calls.append((case, held_out, loop))
+        return {"case": case["case"], "held_out": [3.0, 1.5]}
+
+    monkeypatch.setattr(bench_diagnose_generalisation, "run_case", run_case)
+    case = {"case": "draw-9", "effect": "mast_compliance", "seed": 9, "floor": "tile",
+            "omegas": (10.0, 20.0, 30.0), "params": None}
+    row = {"next_command_purpose": "confirm",
+           "next_commands": [{"command": "v0-w50 tile extended", "omega_deg_s": 50.0,
+                              "separation": 2.5},
+                             {"command": "v0-w40 tile extended", "omega_deg_s": 40.0,
+                              "separation": 2.2}]}
+    second = bench_diagnose_generalisation.follow_up(row, case, tmp_path, 3, 20.0, 1, 3,
+                                                     None, False, None)
+    (followed, held_out, loop), = calls
+    assert followed["omegas"] == (10.0, 20.0, 30.0, 50.0) and followed["seed"] == 9
+    assert followed["case"] == "draw-9-plus50" and held_out == ["v0-w50 tile extended"]
+    assert not loop  # one loop: the second report is not followed again
+    assert second["followed"]["command"] == "v0-w50 tile extended"
+    assert second["purpose"] == "confirm"
+    calls.clear()
+    quiet = {**row, "next_commands": [{**row["next_commands"][0], "separation": 1.0}]}
+    assert bench_diagnose_generalisation.follow_up(quiet, case, tmp_path, 3, 20.0, 1, 3,
+                                                   None, False, None) is None
+    assert not calls

@@ -60,7 +60,9 @@ from _machine import machine  # scripts/bench/, beside this file
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.benchmark_rows import (FIXED, all_rows, clear_causes, drawn_from,
                                                 fraction, groups, held_out_quiet, newest_rows,
-                                                outcome, right_of, row_outcome, row_verdict)
+                                                outcome, proposal_to_follow, rate_interval,
+                                                right_of, row_outcome, row_verdict,
+                                                three_rates)
 from skidsteer.diagnosis.causes import ground_roughness
 from skidsteer.diagnosis.evaluate import SEARCH_STARTS, STARTS
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset
@@ -111,13 +113,13 @@ def case_of(row: dict) -> dict:
 def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int,
              search_starts: int = SEARCH_STARTS, timestep: float | None = None,
              model_spread: bool = False, rough_floor_normal: str | None = None,
-             held_out: list[str] | None = None) -> dict:
+             held_out: list[str] | None = None, loop: bool = False) -> dict:
     """The case's row: its dataset generated and diagnosed, both at `timestep` (None: the
     model's own step, as every committed row); model_spread: diagnose's (False in every
     committed row); rough_floor_normal: the tire plugin's floor_normal on
     ground_roughness's floor, the data's and the fits' (None: the plugin's default, as
     every committed row); held_out: the commands diagnose holds out (None: it chooses,
-    as in every committed row)."""
+    as in every committed row); loop: follow the report (follow_up)."""
     data = out / "datasets" / case["case"]
     with ground_roughness.contact_normal(rough_floor_normal):
         started = time.perf_counter()
@@ -127,7 +129,7 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
                           cache_dir=out / "simulations", search_starts=search_starts,
                           model_spread=model_spread, held_out=held_out)
     best = result["ranking"][0] if result["ranking"] else {}
-    return {**{k: v for k, v in case.items() if k != "params"},
+    row = {**{k: v for k, v in case.items() if k != "params"},
             "truth": truth["parameters"], "verdict": result["verdict"],
             "cause": result["cause"], "reason": result["reason"],
             "parameters": result["parameters"],
@@ -166,6 +168,32 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             # (next_command_purpose says which); older rows have none
             "next_commands": result["next_commands"],
             "next_command_purpose": result.get("next_command_purpose")}
+    if loop:
+        row["loop"] = follow_up(row, case, out, trials, duration_s, threads, search_starts,
+                                timestep, model_spread, rough_floor_normal)
+    return row
+
+
+def follow_up(row: dict, case: dict, out: Path, trials: int, duration_s: float,
+              threads: int, search_starts: int, timestep: float | None, model_spread: bool,
+              rough_floor_normal: str | None) -> dict | None:
+    """What a user who follows the report gets: where the diagnosis proposes a command
+    worth recording (benchmark_rows.proposal_to_follow), that command's trials are
+    generated from the draw's truth (a trial's seed depends on the draw's seed, the
+    command and the trial only, so the draw's own runs are the same) and the dataset is
+    diagnosed again with it held out (diagnose --hold-out), as the report says to.  The
+    second diagnosis's row (run_case's, without a loop of its own), with the command
+    followed; None when there is nothing to follow."""
+    proposal = proposal_to_follow(row)
+    if proposal is None:
+        return None
+    followed = {**case, "case": f"{case['case']}-plus{proposal['omega_deg_s']:g}",
+                "omegas": tuple(sorted([*case["omegas"], proposal["omega_deg_s"]]))}
+    second = run_case(followed, out, trials, duration_s, threads, search_starts, timestep,
+                      model_spread, rough_floor_normal, held_out=[proposal["command"]])
+    return {**second, "followed": {k: proposal[k] for k in ("command", "omega_deg_s",
+                                                            "separation")},
+            "purpose": row["next_command_purpose"]}
 
 
 def _recovery(row: dict) -> str:
@@ -271,8 +299,49 @@ def recovery_table(rows: list[dict]) -> str:
                   for c in recovery(rows)]).rstrip()
 
 
-def report(rows: list[dict], draws_from: int | None = None) -> str:
-    """The table and its summary (also of the draws from seed draws_from on, if given)."""
+def _rate_with_interval(k: int, n: int) -> str:
+    """'k of n (p%, a-b%)': the rate and its RATE_CONFIDENCE interval."""
+    ci = rate_interval(k, n)
+    return fraction(k, n) if ci is None else (
+        fraction(k, n)[:-1] + f", {ci[0]:.0%}-{ci[1]:.0%})")
+
+
+def rates_table(rows: list[dict], truths: dict[str, dict]) -> str:
+    """three_rates() as a table, a row per hidden cause and one for all of them."""
+    return table(["cause", "clear draws", "(a) named right", "(b) the truth would be named",
+                  "(c) after following the report", "commands followed", "wrong names"],
+                 [[cause, str(r["named"][1]), _rate_with_interval(*r["named"]),
+                   _rate_with_interval(*r["ceiling"]), _rate_with_interval(*r["loop"]),
+                   str(r["followed"]), str(r["wrong"])]
+                  for cause, r in three_rates(rows, truths).items()]).rstrip()
+
+
+def followed_table(rows: list[dict]) -> str:
+    """The rows whose report proposed a command worth recording: the command, the first
+    verdict and the one after it was recorded and held out."""
+    out = []
+    for r in rows:
+        proposal = proposal_to_follow(r)
+        if proposal is None:
+            continue
+        second = r.get("loop")
+        out.append([r["case"], r["effect"] or "(none)", r.get("next_command_purpose") or "-",
+                    f"{proposal['omega_deg_s']:g} deg/s ({proposal['separation']:.2f} apart)",
+                    f"{row_verdict(r)[0]} ({row_outcome(r)})",
+                    "not followed" if not second else
+                    f"{row_verdict(second)[0]} {row_verdict(second)[1] or ''} "
+                    f"({row_outcome(second)}), held-out {second['held_out'][0]:.2f} -> "
+                    f"{second['held_out'][1]:.2f}"])
+    return table(["case", "effect", "purpose", "proposed command", "first verdict",
+                  "after recording it, held out"], out).rstrip() if out else (
+        "(no row proposed a command worth recording)")
+
+
+def report(rows: list[dict], draws_from: int | None = None,
+           truths: dict[str, dict] | None = None, rates_from: int | None = None) -> str:
+    """The table and its summary (also of the draws from seed draws_from on, if given);
+    with the ceiling's rows (`truths`, by case), the three rates of the draws from seed
+    rates_from on and the commands their reports proposed."""
     later = drawn_from(rows, draws_from)
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
@@ -287,6 +356,23 @@ def report(rows: list[dict], draws_from: int | None = None) -> str:
     if later:
         lines.append(f"Draws from {draws_from} on ({min(r['seed'] for r in later)}-"
                      f"{max(r['seed'] for r in later)}), {summary(later)}")
+    rated = drawn_from(rows, rates_from)
+    if truths is not None and rated:
+        seeds = [r["seed"] for r in rated]
+        lines += ["", f"Three rates of the draws {min(seeds)}-{max(seeds)} over their causes "
+                  "clear of the trials' noise, with 95 % intervals (Clopper-Pearson): (a) "
+                  "the diagnosis names the hidden cause; (b) the hidden truth itself would "
+                  "be named by the same rules (docs/diagnose-ceiling.md; rows without a "
+                  "ceiling row are not counted); (c) named after following the report: "
+                  "where it proposes a command worth recording (to separate two fits or to "
+                  "confirm the training runs' lead), that command's trials generated from "
+                  "the draw's truth and the dataset diagnosed again with it held out "
+                  "(--hold-out), the first verdict where it proposes none (rows that did "
+                  "not follow a proposal are not counted). Wrong names count the first "
+                  "verdict and the one after the loop, on every row of the cause ('all': "
+                  "nulls and outside effects included).", "", rates_table(rated, truths),
+                  "", "The commands the reports of these draws proposed:", "",
+                  followed_table(rated)]
     lines += ["", "How the hidden cause's fit recovers each fitted parameter, over every row "
               "whose ranking holds it (named or not; a parameter held at its prior is not "
               "counted; p: the two-sided sign test of fits above against below the hidden "
@@ -329,6 +415,13 @@ def main(argv=None) -> int:
                     help="the tire plugin's floor_normal on ground_roughness's floor, in the "
                     "data and in the fits (default: the plugin's, vertical; rows of one "
                     "results file share the setting)")
+    ap.add_argument("--loop", action="store_true", help="follow each report: where it "
+                    "proposes a command worth recording, generate it from the draw's truth "
+                    "and diagnose again with it held out (the row's 'loop')")
+    ap.add_argument("--ceiling", type=Path, help="the ceiling benchmark's rows: the report "
+                    "adds the three rates of the draws from --rates-from on")
+    ap.add_argument("--rates-from", type=int, help="the first seed of the three rates' "
+                    "draws (default: --draws-from)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -365,15 +458,21 @@ def main(argv=None) -> int:
                 continue
             row = run_case(case, args.out, args.trials, args.duration, args.threads,
                            args.search_starts, args.timestep, args.model_spread,
-                           args.rough_floor_normal)
+                           args.rough_floor_normal, loop=args.loop)
             done[row["case"]] = row
             with open(results, "a") as f:
                 f.write(json.dumps(row) + "\n")
             print(f"{row['case']}: {row['effect']} -> {row['verdict']} {row['cause'] or ''} "
-                  f"({row['outcome']}, {row['diagnose_s']:.0f} s)", flush=True)
+                  f"({row['outcome']}, {row['diagnose_s']:.0f} s)"
+                  + (f"; recorded {row['loop']['followed']['command']} and held out: "
+                     f"{row['loop']['verdict']} {row['loop']['cause'] or ''} "
+                     f"({row['loop']['outcome']}, {row['loop']['diagnose_s']:.0f} s)"
+                     if row.get("loop") else ""), flush=True)
     fixed = list(FIXED)
     text = report(sorted(done.values(), key=lambda r: (0, fixed.index(r["case"]))
-                         if r["case"] in FIXED else (1, r["seed"])), args.draws_from)
+                         if r["case"] in FIXED else (1, r["seed"])), args.draws_from,
+                  newest_rows(args.ceiling) if args.ceiling else None,
+                  args.rates_from if args.rates_from is not None else args.draws_from)
     superseded = len(all_rows(results)) - len(done)
     if superseded:
         text += (f"\n{superseded} earlier row(s) of rerun cases are in the results file and "
@@ -394,6 +493,8 @@ def main(argv=None) -> int:
             "scripts/bench/bench_diagnose_generalisation.py --out DIR --results "
             f"{results} --markdown {args.markdown}"
             + (f" --draws-from {args.draws_from}" if args.draws_from is not None else "")
+            + (f" --ceiling {args.ceiling}" if args.ceiling else "")
+            + (f" --rates-from {args.rates_from}" if args.rates_from is not None else "")
             + "` (with `--datasets N --first-seed S` for "
             "the draws S to S+N-1 and `--report` to tabulate the rows only) from every row "
             f"in {results}, {args.trials} trials of {args.duration:g} s per command; what "

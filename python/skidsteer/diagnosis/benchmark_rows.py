@@ -12,7 +12,10 @@ import json
 from pathlib import Path
 from types import SimpleNamespace
 
+from scipy import stats
+
 from skidsteer.diagnosis import causes
+from skidsteer.diagnosis.next_command import worth_recording
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS
 from skidsteer.diagnosis.verdict import (MIN_GAIN, Z_CONSISTENT, gain, preferred_in_training,
                                          rivals, separated, told_from_base, verdict)
@@ -104,6 +107,67 @@ def groups(rows: list[dict]) -> dict[str, list[dict]]:
             "nulls": [r for r in rows if r["effect"] is None],
             "outside": [r for r in rows if r["effect"] in OUTSIDE_EFFECTS
                         and row_outcome(r) != "inside noise"]}
+
+
+def proposal_to_follow(row: dict) -> dict | None:
+    """The command a user following the report records next: the diagnosis's first
+    proposal (next_commands, best first) where it reaches the limit a discrepancy needs
+    (next_command.worth_recording); None where nothing is proposed or no swivel would
+    tell (the report then says so and proposes nothing to record)."""
+    proposals = row.get("next_commands") or []
+    return proposals[0] if proposals and worth_recording(proposals[0]) else None
+
+
+def loop_outcome(row: dict) -> str | None:
+    """The row's outcome after the report is followed: the second diagnosis's (with the
+    proposed command recorded and held out, the row's "loop") where a command was worth
+    recording, the first one's where none was; None where one was and the row did not
+    follow it (rows written before the loop was run, or before proposals were kept)."""
+    if "next_commands" not in row:
+        return None
+    if proposal_to_follow(row) is None:
+        return row_outcome(row)
+    second = row.get("loop")
+    return row_outcome(second) if second else None
+
+
+# the confidence of the rates' intervals (two-sided; Clopper-Pearson, exact for k of n)
+RATE_CONFIDENCE = 0.95
+
+
+def rate_interval(k: int, n: int) -> tuple[float, float] | None:
+    """The RATE_CONFIDENCE interval of a rate of k in n (scipy's exact binomial one);
+    None for no rows."""
+    if n == 0:
+        return None
+    ci = stats.binomtest(k, n).proportion_ci(RATE_CONFIDENCE, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def three_rates(rows: list[dict], truths: dict[str, dict]) -> dict[str, dict]:
+    """Per hidden cause (and "all") over the clear causes of `rows`: (a) "named", the
+    first diagnosis names the hidden cause; (b) "ceiling", the hidden truth itself would
+    be named by the same rules (judged on the ceiling row of the same case, `truths`
+    by case; rows without one are not counted); (c) "loop", named after the report is
+    followed (loop_outcome; rows that did not follow a proposal are not counted), each as
+    (k, n); "followed", the rows that recorded a proposed command; "wrong", the names
+    that are not the hidden cause, first or after the loop (every row, nulls and outside
+    effects included, is in "all")."""
+    out: dict[str, dict] = {}
+    clear = clear_causes(rows)
+    for cause in [*sorted({r["effect"] for r in clear}), "all"]:
+        mine = [r for r in clear if cause in ("all", r["effect"])]
+        ceiling = [judged(truths[r["case"]], r)["named"] for r in mine if r["case"] in truths]
+        after = [loop_outcome(r) for r in mine]
+        after = [o for o in after if o is not None]
+        every = rows if cause == "all" else mine
+        out[cause] = {
+            "named": right_of(mine), "ceiling": (sum(ceiling), len(ceiling)),
+            "loop": (sum(o == "right" for o in after), len(after)),
+            "followed": sum(bool(r.get("loop")) for r in mine),
+            "wrong": sum(wrong_name(r) or bool(r.get("loop") and wrong_name(r["loop"]))
+                         for r in every)}
+    return out
 
 
 def drawn_from(rows: list[dict], draws_from: int | None) -> list[dict]:
