@@ -22,6 +22,7 @@ from pathlib import Path
 
 from skidsteer.data.files import write_atomically
 from skidsteer.diagnosis import benchmark_rows
+from skidsteer.reports.benchmarks import rates_table
 from skidsteer.reports.markdown import table as _table
 from skidsteer.reports.reproduction import summary_rows
 from skidsteer.robot import tire
@@ -71,7 +72,7 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
     rows = list(newest.values())
     later = benchmark_rows.drawn_from(rows, draws_from)
     seeds = [r["seed"] for r in later]
-    return _table(
+    summary = _table(
         ["draws", "datasets", "clear causes named right", "wrong names",
          "nulls no-discrepancy; fans unexplained",
          "the truth itself would be named (as in the third column)",
@@ -81,6 +82,12 @@ def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.j
               benchmark_rows.drawn_from_indices(truths, newest, draws_from)),
          line("all (every code version, a draw's newest row)", rows,
               list(range(len(truths))))])
+    return (summary + f"\nPer cause, the draws {min(seeds)}-{max(seeds)}: (a) named right, "
+            "(b) the truth itself would be named (the ceiling), (c) named after following the "
+            "report (the proposed command recorded and held out; a row whose report "
+            "proposed one it did not follow is not counted), with 95 % intervals "
+            "(Clopper-Pearson):\n\n"
+            + rates_table(later, benchmark_rows.newest_rows(rows_of_ceiling)) + "\n")
 
 
 def between_markers(text: str, name: str) -> str | None:

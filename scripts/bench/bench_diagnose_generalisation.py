@@ -60,13 +60,13 @@ from _machine import machine  # scripts/bench/, beside this file
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.benchmark_rows import (FIXED, all_rows, clear_causes, drawn_from,
                                                 fraction, groups, held_out_quiet, newest_rows,
-                                                outcome, proposal_to_follow, rate_interval,
-                                                right_of, row_outcome, row_verdict,
-                                                three_rates)
+                                                outcome, proposal_to_follow, right_of,
+                                                row_outcome, row_verdict)
 from skidsteer.diagnosis.causes import ground_roughness
 from skidsteer.diagnosis.evaluate import SEARCH_STARTS, STARTS
 from skidsteer.diagnosis.synth import OUTSIDE_EFFECTS, make_dataset
 from skidsteer.diagnosis.verdict import Z_CONSISTENT
+from skidsteer.reports.benchmarks import rates_table
 from skidsteer.reports.diagnosis import diagnose
 from skidsteer.reports.markdown import table
 from skidsteer.robot import Setup, tire
@@ -297,23 +297,6 @@ def recovery_table(rows: list[dict]) -> str:
                    f"{c['inside']} of {c['with_interval']}" if c["with_interval"] else "-",
                    f"{c['bounded_inside']} of {c['bounded']}" if c["bounded"] else "-"]
                   for c in recovery(rows)]).rstrip()
-
-
-def _rate_with_interval(k: int, n: int) -> str:
-    """'k of n (p%, a-b%)': the rate and its RATE_CONFIDENCE interval."""
-    ci = rate_interval(k, n)
-    return fraction(k, n) if ci is None else (
-        fraction(k, n)[:-1] + f", {ci[0]:.0%}-{ci[1]:.0%})")
-
-
-def rates_table(rows: list[dict], truths: dict[str, dict]) -> str:
-    """three_rates() as a table, a row per hidden cause and one for all of them."""
-    return table(["cause", "clear draws", "(a) named right", "(b) the truth would be named",
-                  "(c) after following the report", "commands followed", "wrong names"],
-                 [[cause, str(r["named"][1]), _rate_with_interval(*r["named"]),
-                   _rate_with_interval(*r["ceiling"]), _rate_with_interval(*r["loop"]),
-                   str(r["followed"]), str(r["wrong"])]
-                  for cause, r in three_rates(rows, truths).items()]).rstrip()
 
 
 def followed_table(rows: list[dict]) -> str:
