@@ -143,6 +143,13 @@ def candidates() -> list[Candidate]:
     out.append(Candidate("calibrated_frame+falling_friction",
                          (frame, mechanism(strongest, "falling", tire=falling[strongest])),
                          f"the calibrated frame and {strongest}"))
+    # a bound, not a model: the soft frame is what an amplitude-dependent mount would be in
+    # the swivel if it stayed stiff in the free responses, so what it and the falling
+    # friction reproduce together is the most such a mount could add to the friction
+    out.append(Candidate("lifting_frame+falling_friction",
+                         (lifter, mechanism(strongest, "falling", tire=falling[strongest])),
+                         f"the lifting frame and {strongest}: an upper bound for a mount "
+                         "soft in the swivel only (Table 5.2 excludes the frame itself)"))
     # not a mechanism but the base model with its belt couplings at the rigid limit the
     # thesis assumes (Assumption 4; docs/reproduction/belt_coupling.md)
     out.append(Candidate("rigid_belts", (mechanism("base", "base"),),
