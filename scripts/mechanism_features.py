@@ -106,7 +106,8 @@ class Candidate:
 def candidates() -> list[Candidate]:
     """The base model, each mechanism of the screen at the middle of its prior, the
     calibrated frame, the frame that lifts a wheel at 64 deg/s (finding 8; excluded by
-    Table 5.2), and the calibrated frame paired with each forced candidate."""
+    Table 5.2), the calibrated frame paired with each forced candidate and with the
+    falling friction, and the lifting frame with the falling friction (a bound)."""
     mechanism = screen_mechanisms.Mechanism
     mast = causes.get("mast_compliance")
     frame = mechanism("calibrated frame", "mast_compliance", "mast_compliance",
