@@ -50,8 +50,9 @@ def plugin_tables() -> dict[str, str]:
 def fresh_draws_table(results: Path = REPO / "docs" / "diagnose-generalisation.jsonl",
                       rows_of_ceiling: Path = REPO / "docs" / "diagnose-ceiling.jsonl",
                       draws_from: int = FRESH_FROM) -> str:
-    """docs/diagnose.md's table of diagnose on fresh draws: the draws from draws_from on
-    and the whole table, each as the two benchmarks' summaries count them."""
+    """docs/diagnose.md's tables of diagnose on fresh draws: the draws from draws_from on
+    and the whole table, each as the two benchmarks' summaries count them, then the three
+    rates per cause of the draws from draws_from on (reports.benchmarks.rates_table)."""
     newest = benchmark_rows.newest_rows(results)
     truths = list(benchmark_rows.newest_rows(rows_of_ceiling).values())
     verdicts = [benchmark_rows.judged(r, newest[r["case"]]) for r in truths]

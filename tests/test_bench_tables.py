@@ -30,7 +30,7 @@ def _body(markdown: str) -> list[str]:
     return [line for line in lines[first:] if not line.startswith("Machine:")]
 
 
-def _draws_from(markdown: str) -> list[str]:
+def _generated_with(markdown: str) -> list[str]:
     """The --draws-from, --ceiling and --rates-from the committed table was generated
     with, as arguments."""
     command = markdown.split("\n\n")[1]
@@ -49,7 +49,7 @@ def test_the_committed_benchmark_table_is_its_rows(name, tmp_path, capsys):
     regenerated = tmp_path / "table.md"
     args = ["--out", str(tmp_path / "out"),
             "--results", str(DOCS / "diagnose-generalisation.jsonl"), "--report",
-            "--markdown", str(regenerated), *_draws_from(committed)]
+            "--markdown", str(regenerated), *_generated_with(committed)]
     if name == "ceiling":
         (tmp_path / "out").mkdir()
         args += ["--ceiling", str(DOCS / "diagnose-ceiling.jsonl")]
