@@ -7,10 +7,11 @@ which reads ``split`` (training and held-out runs), ``evaluate`` (a model's erro
 simulated starts), ``search`` (each candidate fitted), ``intervals`` (each fitted
 parameter's interval) and ``verdict`` (the rules that name a cause, or none);
 ``summary``: a diagnosis as diagnosis.json's data; ``next_command``: the swivel to
-record when the data cannot decide; ``thesis_features``: the thesis's Sec. 3.2
-features and targets decided on simulated runs; ``synth``: datasets with a hidden
-effect, for tests.  reports.diagnosis reads a dataset through these and writes the
-outputs.
+record when the data cannot decide; ``folds``: one verdict read over
+leave-one-command-out diagnoses (scripts/bench/bench_every_command.py);
+``thesis_features``: the thesis's Sec. 3.2 features and targets decided on
+simulated runs; ``synth``: datasets with a hidden effect, for tests.
+reports.diagnosis reads a dataset through these and writes the outputs.
 """
 
 from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, LOG_POWER_RESOLUTION,
