@@ -17,6 +17,7 @@ from skidsteer.diagnosis.benchmark_rows import row_outcome, wrong_name
 
 import bench_diagnose_ceiling  # scripts/bench/ and scripts/: pytest's pythonpath
 import bench_diagnose_generalisation
+import bench_every_command
 import update_readme_tables
 
 DOCS = REPO / "docs"
@@ -275,3 +276,42 @@ def test_following_a_proposal_diagnoses_the_draw_with_the_command_added_and_held
     assert bench_diagnose_generalisation.follow_up(quiet, case, tmp_path, 3, 20.0, 1, 3,
                                                    None, False, None) is None
     assert not calls
+
+
+def test_the_every_command_table_is_its_rows(tmp_path, capsys):
+    """docs/diagnose-every-command.md is what the script makes of its committed rows, each
+    judged both ways by the rules as they are now."""
+    regenerated = tmp_path / "table.md"
+    bench_every_command.main(["--out", str(tmp_path), "--results",
+                              str(DOCS / "diagnose-generalisation.jsonl"), "--every",
+                              str(DOCS / "diagnose-every-command.jsonl"), "--report",
+                              "--markdown", str(regenerated)])
+    capsys.readouterr()
+    assert _body(regenerated.read_text()) == _body(
+        (DOCS / "diagnose-every-command.md").read_text()), (
+        "docs/diagnose-every-command.md is not its rows' table; regenerate it with the "
+        "command its first paragraph gives")
+
+
+def test_every_command_reads_the_single_split_from_the_fold_holding_out_the_rows_command():
+    groups = ["v0-w20 tile extended", "v0-w40 tile extended", "v0-w60 tile extended"]
+
+    def fold(held, base_held, cause_held):
+        return {"held_out": [held], "groups": groups, "verdict": "?", "cause": None,
+                "ranking": [{"cause": "loose_payload", "held_out_error": cause_held,
+                             "train_error": 1.3, "score": cause_held ** 2 + 2 / 6,
+                             "fitted": ["frequency_hz"], "parameters": {"frequency_hz": 9.0}}],
+                "base_held": base_held, "noise": 1.0, "base_error": 3.0, "base_train": 3.2,
+                "n_train": 6, "wall_time_s": 100.0}
+
+    # the middle command is quiet: held out alone, it confirms nothing; the others name
+    row = {"case": "draw-9", "effect": "loose_payload", "seed": 9,
+           "single_held_out": groups[1], "row_outcome": "missed", "row_code": "old",
+           "row_diagnose_s": 500.0,
+           "folds": [fold(groups[0], 4.0, 1.3), fold(groups[1], 1.7, 1.4),
+                     fold(groups[2], 3.5, 1.2)]}
+    seen = bench_every_command.judged(row)
+    assert seen["single"]["outcome"] == "missed" and seen["single"]["base_held"] == 1.7
+    assert seen["every"]["outcome"] == "right" and seen["every"]["cause"] == "loose_payload"
+    assert seen["single"]["diagnose_s"] == 100.0 and seen["every"]["diagnose_s"] == 300.0
+    assert "every command: 1 of 1 (100%)" in bench_every_command.report([row])
