@@ -297,12 +297,14 @@ def test_every_command_reads_the_single_split_from_the_fold_holding_out_the_rows
     groups = ["v0-w20 tile extended", "v0-w40 tile extended", "v0-w60 tile extended"]
 
     def fold(held, base_held, cause_held):
-        return {"held_out": [held], "groups": groups, "verdict": "?", "cause": None,
+        return {"dataset": {"groups": groups, "held_out_groups": [held]},
+                "verdict": "?", "cause": None,
                 "ranking": [{"cause": "loose_payload", "held_out_error": cause_held,
                              "train_error": 1.3, "score": cause_held ** 2 + 2 / 6,
                              "fitted": ["frequency_hz"], "parameters": {"frequency_hz": 9.0}}],
-                "base_held": base_held, "noise": 1.0, "base_error": 3.0, "base_train": 3.2,
-                "n_train": 6, "wall_time_s": 100.0}
+                "gain": {"baseline_error": base_held, "noise_error": 1.0},
+                "baseline_error_all_runs": 3.0, "baseline_error_training": 3.2,
+                "training_runs": 6, "wall_time_s": 100.0}
 
     # the middle command is quiet: held out alone, it confirms nothing; the others name
     row = {"case": "draw-9", "effect": "loose_payload", "seed": 9,

@@ -35,7 +35,8 @@ import numpy as np
 
 import skidsteer  # noqa: F401  (registers the plugin)
 from _machine import machine  # scripts/bench/, beside this file
-from bench_diagnose_generalisation import case_of, generate
+from bench_diagnose_ceiling import _dataset
+from bench_diagnose_generalisation import case_of
 from skidsteer.diagnosis import causes
 from skidsteer.diagnosis.benchmark_rows import fraction, newest_rows, outcome, row_outcome
 from skidsteer.diagnosis.folds import every_command_verdict, split_verdict
@@ -54,24 +55,13 @@ def fold_path(out: Path, case: str, command: str) -> Path:
 
 
 def compact(summary: dict) -> dict:
-    """A fold as a row keeps it."""
-    return {"held_out": summary["dataset"]["held_out_groups"],
-            "groups": summary["dataset"]["groups"],
-            "verdict": summary["verdict"], "cause": summary["cause"],
+    """A fold as a row keeps it: the diagnosis summary's fields the verdicts read, its own
+    verdict and its time."""
+    return {"dataset": {k: summary["dataset"][k] for k in ("groups", "held_out_groups")},
             "ranking": [{k: f[k] for k in RANKED} for f in summary["ranking"]],
-            "base_held": summary["gain"]["baseline_error"],
-            "noise": summary["gain"]["noise_error"],
-            "base_error": summary["baseline_error_all_runs"],
-            "base_train": summary["baseline_error_training"],
-            "n_train": summary["training_runs"], "wall_time_s": summary["wall_time_s"]}
-
-
-def summary_of(fold: dict) -> dict:
-    """A kept fold as the diagnosis summary diagnosis.folds reads."""
-    return {"dataset": {"groups": fold["groups"], "held_out_groups": fold["held_out"]},
-            "ranking": fold["ranking"], "baseline_error_all_runs": fold["base_error"],
-            "baseline_error_training": fold["base_train"], "training_runs": fold["n_train"],
-            "gain": {"baseline_error": fold["base_held"], "noise_error": fold["noise"]}}
+            "gain": {k: summary["gain"][k] for k in ("baseline_error", "noise_error")},
+            **{k: summary[k] for k in ("baseline_error_all_runs", "baseline_error_training",
+                                       "training_runs", "verdict", "cause", "wall_time_s")}}
 
 
 def folds_of(case: dict, out: Path, trials: int, duration_s: float,
@@ -79,9 +69,7 @@ def folds_of(case: dict, out: Path, trials: int, duration_s: float,
     """The case's folds, one per command held out (kept as compact() keeps them), each
     read from OUT/folds where a run (this one or a killed one) stored it, else diagnosed
     and stored."""
-    data = out / "datasets" / case["case"]
-    if not (data / "runs.csv").exists():
-        generate(case, out, trials, duration_s, threads)
+    data = _dataset(case, out, trials, duration_s, threads)
     folds = []
     for omega in case["omegas"]:
         command = f"v0-w{omega:g}"
@@ -110,15 +98,15 @@ def judged(row: dict) -> dict:
     """Both verdicts by the rules as they are now: the single split (the fold holding out
     the row's command) and every command (folds.every_command_verdict), each with its
     outcome and time (every command: the three folds')."""
-    summaries = [summary_of(f) for f in row["folds"]]
+    summaries = row["folds"]
     found = every_command_verdict(summaries)
     i = found.held_out.index(row["single_held_out"])
     single, single_named = split_verdict(summaries[i])
     named = found.named.cause if found.named is not None else None
-    base_error = row["folds"][0]["base_error"]
+    base_error = summaries[0]["baseline_error_all_runs"]
     return {"single": {"verdict": single, "cause": single_named,
                        "outcome": outcome(row["effect"], single, single_named, base_error),
-                       "base_held": row["folds"][i]["base_held"],
+                       "base_held": summaries[i]["gain"]["baseline_error"],
                        "diagnose_s": row["folds"][i]["wall_time_s"]},
             "every": {"verdict": found.verdict, "cause": named,
                       "outcome": outcome(row["effect"], found.verdict, named, base_error),
