@@ -107,11 +107,11 @@ def judged(row: dict) -> dict:
     return {"single": {"verdict": single, "cause": single_named,
                        "outcome": outcome(row["effect"], single, single_named, base_error),
                        "base_held": summaries[i]["gain"]["baseline_error"],
-                       "diagnose_s": row["folds"][i]["wall_time_s"]},
+                       "diagnose_s": summaries[i]["wall_time_s"]},
             "every": {"verdict": found.verdict, "cause": named,
                       "outcome": outcome(row["effect"], found.verdict, named, base_error),
                       "base_held": found.base_held, "reason": found.reason,
-                      "diagnose_s": sum(f["wall_time_s"] for f in row["folds"])},
+                      "diagnose_s": sum(f["wall_time_s"] for f in summaries)},
             "folds": [split_verdict(s) for s in summaries], "held_out": found.held_out}
 
 
