@@ -6,8 +6,9 @@
 2. The runs are split into training and held-out runs (split.split).
 3. Each candidate cause (diagnosis.causes) is fitted on the training runs by its main
    parameter (search.fit_cause); the best (search.contenders) then have every
-   parameter fitted (search.refine_fit), and every fit's intervals are read against its
-   own start-to-start scatter (search.with_start_scatter).
+   parameter fitted (search.refine_fit; a random geometry's realisation is chosen again
+   where the fit ends), and every fit's intervals are read against its own
+   start-to-start scatter (search.with_start_scatter).
 4. Each fit is scored on the held-out runs with a penalty per fitted parameter; the two
    best are also simulated together (search.fit_pair); the verdict follows the rules of
    verdict.py.  When the data leave two fits undecided, or the held-out runs cannot
@@ -93,7 +94,8 @@ def simulations_planned(names: list[str], observed: Observed,
     REFINE_STEPS_PLANNED steps and may take up to REFINE_MAX_STEPS, and refinements and
     profile moves are planned in full where a search often stops early): the base model
     on every command; per cause the grid, the Brent steps, for a random geometry the
-    other realisations and a second grid, for a cause with a design its points; for the
+    other realisations and a second grid, and every realisation again at three values
+    around its fit (search.rechoose_realisation), for a cause with a design its points; for the
     causes contenders() can refine (every cause with a design, and the REFINE_CONTENDERS
     costliest to refine of the others with more than one parameter)
     refine_parameters' passes and profile (twice with
@@ -115,6 +117,9 @@ def simulations_planned(names: list[str], observed: Observed,
     refined = designed | {c.name for c in others[:REFINE_CONTENDERS]}
     searched = sum(GRID_POINTS + REFINE_STEPS_PLANNED
                    + (REALISATIONS - 1 + GRID_POINTS if c.random_realisation else 0)
+                   # rechoose_realisation, planned as if it were a contender (it runs for
+                   # the contenders only) that finds no better realisation
+                   + (3 * REALISATIONS - 1 if c.random_realisation else 0)
                    + (len(c.design()) if c.design is not None else 0)
                    + (refining(c) if c.name in refined else 0) for c in candidates)
     # split() moves held-out groups, never changes their count; the user's stay

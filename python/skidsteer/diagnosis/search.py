@@ -1,7 +1,8 @@
 """Each candidate cause fitted on the training runs: its main parameter over a grid and by
-Brent (fit_cause), then every parameter by a pattern search (refine_fit), each fit's
-intervals read against its own start-to-start scatter (with_start_scatter), and the two
-best together (fit_pair).
+Brent (fit_cause), then every parameter by a pattern search and a random geometry's
+realisation chosen again where the fit ends (refine_fit), each fit's intervals read
+against its own start-to-start scatter (with_start_scatter), and the two best together
+(fit_pair).
 
 The residual is on spectral features, not the raw signal: a time-series residual has
 phase-wrapping local minima (PLATFORM-NOTES, sysid).  Causes with a random geometry (a
@@ -147,15 +148,56 @@ def _design_points(cause) -> list[dict[str, float]]:
 
 def refine_fit(fit: Fit, held: np.ndarray) -> Fit:
     """The fit again with every parameter of its cause fitted (refine_parameters), from
-    where the main parameter's fit ended; the same fit when the cause has no other."""
+    where the main parameter's fit ended, and a random geometry's realisation chosen
+    again there (rechoose_realisation); the same fit when neither applies."""
     cause = cause_registry.get(fit.cause)
-    if not cause.held or len(fit.fitted) > 1:
+    if cause.held and len(fit.fitted) == 1:
+        realisation = fit.realisation if fit.realisation is not None else FIT_SEED
+        parameters = [cause.main, *cause.held]
+        fit_every_parameter(fit.evaluator, cause, fit.parameters, realisation)
+        fit = dataclasses.replace(_result(cause, fit.evaluator, parameters, realisation, held),
+                                  realisation_errors=fit.realisation_errors,
+                                  design_better=fit.design_better)
+    return rechoose_realisation(fit, held) if cause.random_realisation else fit
+
+
+def rechoose_realisation(fit: Fit, held: np.ndarray) -> Fit:
+    """A random geometry's fit with its realisation chosen again where the fit ended:
+    each realisation at the fit's main value and one fine step (REFINE_STEPS[-1]) either
+    side, its other parameters at the fit's; where another realisation fits the training
+    runs better, the search again there (Brent on the main parameter, or every parameter
+    for a cause that has others) and the better of the two fits.
+
+    fit_cause chooses at the coarse grid's best value, and a realisation that fits there
+    need not fit at the value the search then reaches: a floor with larger bumps on the
+    wheels' path matches the data at a lower RMS height, wheels whose run-outs add up at
+    a smaller run-out, and the search keeps that value."""
+    cause = cause_registry.get(fit.cause)
+    evaluate, main = fit.evaluator, cause.main
+    if evaluate is None or fit.realisation is None:
         return fit
-    realisation = fit.realisation if fit.realisation is not None else FIT_SEED
-    parameters = [cause.main, *cause.held]
-    fit_every_parameter(fit.evaluator, cause, fit.parameters, realisation)
-    return dataclasses.replace(_result(cause, fit.evaluator, parameters, realisation, held),
-                               realisation_errors=fit.realisation_errors,
+    step = REFINE_STEPS[-1]
+    unit = main.to_unit(fit.parameters[main.name])
+    values = [float(main.from_unit(np.clip(unit + d, 0.0, 1.0))) for d in (-step, 0.0, step)]
+    realisations = range(FIT_SEED, FIT_SEED + REALISATIONS)
+    points = [(fit.parameters | {main.name: v}, r) for r in realisations for v in values]
+    errors = evaluate(points)
+    start, realisation = points[int(np.argmin(errors))]
+    if realisation == fit.realisation or min(errors) >= fit.train_error:
+        return fit
+    fitted = [cause.priors[name] for name in fit.fitted]
+    if len(fitted) > 1:
+        refine_parameters(evaluate, fitted, start, realisation)
+    else:
+        at = main.to_unit(start[main.name])
+        optimize.minimize_scalar(
+            lambda u: evaluate([(start | {main.name: float(main.from_unit(u))}, realisation)])[0],
+            bounds=(max(0.0, at - step), min(1.0, at + step)), method="bounded",
+            options={"xatol": REFINE_TOL_UNIT, "maxiter": REFINE_MAX_STEPS})
+    again = _result(cause, evaluate, fitted, realisation, held)
+    if again.train_error >= fit.train_error:
+        return fit
+    return dataclasses.replace(again, realisation_errors=fit.realisation_errors,
                                design_better=fit.design_better)
 
 
@@ -183,8 +225,24 @@ def with_start_scatter(fit: Fit) -> Fit:
     _, intervals, unprobed = parameter_intervals(
         evaluate, {name: priors[name] for name in fit.fitted}, fit.parameters, realisation,
         bound)
+    if fit.realisation is not None:
+        intervals[fit.main] = over_realisations(evaluate, fit, bound, intervals[fit.main])
     return dataclasses.replace(fit, interval=intervals[fit.main], intervals=intervals,
                                train_errors_over_starts=errors, unprobed=unprobed)
+
+
+def over_realisations(evaluate: Evaluations, fit: Fit, bound: float,
+                      interval: tuple[float, float]) -> tuple[float, float]:
+    """A random geometry's main interval widened to every value of it that another
+    realisation, at the fit's other parameters, fits within `bound` (on the training
+    error squared) among the points evaluated: the data tell the value only as well as
+    they tell the realisation (a floor bumpier on the wheels' path, or run-outs that add
+    up, match the data at a smaller value)."""
+    others = {k: v for k, v in parameter_key(fit.parameters) if k != fit.main}
+    values = [dict(key)[fit.main] for (key, r), (error, _) in evaluate.done.items()
+              if r != fit.realisation and error ** 2 <= bound
+              and {k: v for k, v in key if k != fit.main} == others]
+    return min([interval[0], *values]), max([interval[1], *values])
 
 
 def _result(cause, evaluate: Evaluations, fitted: list, realisation: int,
