@@ -33,7 +33,7 @@ from skidsteer.diagnosis.comparison import (CENTRIPETAL_RESOLUTION_M_S2, Compari
                                             Simulated, model_factory, simulate_group,
                                             wheel_rates_hz)
 from skidsteer.diagnosis.causes.mast_compliance import exchanged_axes
-from skidsteer.diagnosis.evaluate import STARTS, median_error, parameter_key
+from skidsteer.diagnosis.evaluate import STARTS, Evaluations, median_error, parameter_key
 from skidsteer.diagnosis.intervals import interval, interval_bound, unprobed_sides
 from skidsteer.diagnosis.search import (GRID_POINTS, PROFILE_MOVES, REFINE_CONTENDERS,
                                         REFINE_MAX_STEPS, REFINE_STEPS, Fit, contenders,
@@ -615,9 +615,8 @@ class _RealisedSurface:
             self.done[(parameter_key(params), int(r))] = (self.error(params, r), None)
         return [self.error(params, r) for params, r in points]
 
-    def best(self, realisation):
-        key = min((k for k in self.done if k[1] == realisation), key=lambda k: self.done[k][0])
-        return dict(key[0]), self.done[key][0], None
+    best = Evaluations.best
+    profile = Evaluations.profile
 
     def complete(self, params, realisation):
         return None
@@ -627,11 +626,6 @@ class _RealisedSurface:
 
     def factory(self, params, realisation):
         return None
-
-    def profile(self, name, at, realisation):
-        others = {k: v for k, v in parameter_key(at) if k != name}
-        return sorted((dict(key)[name], e) for (key, r), (e, _) in self.done.items()
-                      if r == realisation and {k: v for k, v in key if k != name} == others)
 
 
 def _run_out_fit(surface, unit: float, realisation: int):

@@ -238,10 +238,10 @@ def over_realisations(evaluate: Evaluations, fit: Fit, bound: float,
     error squared) among the points evaluated: the data tell the value only as well as
     they tell the realisation (a floor bumpier on the wheels' path, or run-outs that add
     up, match the data at a smaller value)."""
-    others = {k: v for k, v in parameter_key(fit.parameters) if k != fit.main}
-    values = [dict(key)[fit.main] for (key, r), (error, _) in evaluate.done.items()
-              if r != fit.realisation and error ** 2 <= bound
-              and {k: v for k, v in key if k != fit.main} == others]
+    realisations = {r for _, r in evaluate.done} - {fit.realisation}
+    values = [value for r in sorted(realisations)
+              for value, error in evaluate.profile(fit.main, fit.parameters, r)
+              if error ** 2 <= bound]
     return min([interval[0], *values]), max([interval[1], *values])
 
 
