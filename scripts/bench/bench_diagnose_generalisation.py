@@ -145,10 +145,12 @@ def run_case(case: dict, out: Path, trials: int, duration_s: float, threads: int
             "base_train": result["baseline_error_training"], "n_train": result["training_runs"],
             # the intervals too (from fresh draws 1201 on): recovery() counts how often they
             # hold the hidden value; and the training errors over the starts they are read
-            # against (from draw 1209 on)
+            # against (from draw 1209 on); and a random geometry's realisation (newer rows):
+            # which phases or bumps the fit's values hold for
             "ranking": [{k: f[k] for k in ("cause", "held_out_error", "train_error", "score",
                                            "fitted", "parameters", "interval",
-                                           "train_errors_over_starts", "unprobed")}
+                                           "train_errors_over_starts", "unprobed",
+                                           "realisation")}
                         for f in result["ranking"]],
             "outcome": outcome(case["effect"], result["verdict"], result["cause"],
                                result["baseline_error_all_runs"]),
