@@ -13,7 +13,7 @@ import pytest
 
 from conftest import REPO
 from skidsteer.diagnosis import causes
-from skidsteer.diagnosis.benchmark_rows import row_outcome, wrong_name
+from skidsteer.diagnosis.benchmark_rows import FIXED, row_outcome, wrong_name
 
 import bench_diagnose_ceiling  # scripts/bench/ and scripts/: pytest's pythonpath
 import bench_diagnose_generalisation
@@ -36,11 +36,14 @@ def _generated_with(markdown: str) -> list[str]:
     with, as arguments."""
     command = markdown.split("\n\n")[1]
     out = []
-    for option in ("--draws-from", "--ceiling", "--rates-from"):
+    for option in ("--draws-from", "--ceiling"):
         found = re.search(option + r" (\S+?)[` ]", command)
         if found:
             value = found.group(1)
             out += [option, str(REPO / value) if option == "--ceiling" else value]
+    found = re.search(r"--rates-from ((?:\d+ ?)+)", command)
+    if found:
+        out += ["--rates-from", *found.group(1).split()]
     return out
 
 
@@ -317,3 +320,12 @@ def test_every_command_reads_the_single_split_from_the_fold_holding_out_the_rows
     assert seen["every"]["outcome"] == "right" and seen["every"]["cause"] == "loose_payload"
     assert seen["single"]["diagnose_s"] == 100.0 and seen["every"]["diagnose_s"] == 300.0
     assert "every command: 1 of 1 (100%)" in bench_every_command.report([row])
+
+
+def test_rates_are_read_per_block_of_draws():
+    # each block of fresh draws is one code's run: from its first seed to the next
+    # block's less one, the last open-ended; fixed cases are in none
+    rows = [{"case": f"draw-{s}", "seed": s} for s in (1299, 1300, 1359, 1360, 1400)]
+    rows.append({"case": next(iter(FIXED)), "seed": 1330})
+    blocks = bench_diagnose_generalisation.rate_blocks(rows, [1360, 1300])
+    assert [[r["seed"] for r in block] for block in blocks] == [[1300, 1359], [1360, 1400]]

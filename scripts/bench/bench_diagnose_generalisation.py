@@ -322,11 +322,19 @@ def followed_table(rows: list[dict]) -> str:
         "(no row proposed a command worth recording)")
 
 
+def rate_blocks(rows: list[dict], rates_from: list[int]) -> list[list[dict]]:
+    """The drawn rows in blocks: from each seed of rates_from (ascending) to the next one
+    less one, the last block open-ended (a block of fresh draws is one code's run)."""
+    starts = sorted(rates_from)
+    return [[r for r in drawn_from(rows, start) if i + 1 == len(starts)
+             or r["seed"] < starts[i + 1]] for i, start in enumerate(starts)]
+
+
 def report(rows: list[dict], draws_from: int | None = None,
-           truths: dict[str, dict] | None = None, rates_from: int | None = None) -> str:
+           truths: dict[str, dict] | None = None, rates_from: list[int] | None = None) -> str:
     """The table and its summary (also of the draws from seed draws_from on, if given);
-    with the ceiling's rows (`truths`, by case), the three rates of the draws from seed
-    rates_from on and the commands their reports proposed."""
+    with the ceiling's rows (`truths`, by case), the three rates of each block of draws
+    rate_blocks makes of rates_from, and the commands their reports proposed."""
     later = drawn_from(rows, draws_from)
     lines = [table(["case", "effect", "floor", "deg/s", "verdict", "cause", "removed",
                     "held-out error", "fitted / hidden (main parameter)", "outcome", "s"],
@@ -341,8 +349,9 @@ def report(rows: list[dict], draws_from: int | None = None,
     if later:
         lines.append(f"Draws from {draws_from} on ({min(r['seed'] for r in later)}-"
                      f"{max(r['seed'] for r in later)}), {summary(later)}")
-    rated = drawn_from(rows, rates_from)
-    if truths is not None and rated:
+    for rated in rate_blocks(rows, rates_from or []) if truths is not None else []:
+        if not rated:
+            continue
         seeds = [r["seed"] for r in rated]
         lines += ["", f"Three rates of the draws {min(seeds)}-{max(seeds)} over their causes "
                   "clear of the trials' noise, with 95 % intervals (Clopper-Pearson): (a) "
@@ -405,8 +414,10 @@ def main(argv=None) -> int:
                     "and diagnose again with it held out (the row's 'loop')")
     ap.add_argument("--ceiling", type=Path, help="the ceiling benchmark's rows: the report "
                     "adds the three rates of the draws from --rates-from on")
-    ap.add_argument("--rates-from", type=int, help="the first seed of the three rates' "
-                    "draws (default: --draws-from)")
+    ap.add_argument("--rates-from", type=int, nargs="+", help="the first seed of the three "
+                    "rates' draws (default: --draws-from); several seeds: one block of rates "
+                    "from each to the next one less one (a block per code's run of fresh "
+                    "draws)")
     ap.add_argument("--only", nargs="*", help="run only these cases (names in the table)")
     ap.add_argument("--rerun", nargs="*", default=[], help="run these cases again with the "
                     "code as it is (their earlier rows stay in the results file; the table "
@@ -457,7 +468,8 @@ def main(argv=None) -> int:
     text = report(sorted(done.values(), key=lambda r: (0, fixed.index(r["case"]))
                          if r["case"] in FIXED else (1, r["seed"])), args.draws_from,
                   newest_rows(args.ceiling) if args.ceiling else None,
-                  args.rates_from if args.rates_from is not None else args.draws_from)
+                  args.rates_from if args.rates_from is not None else
+                  [args.draws_from] if args.draws_from is not None else None)
     superseded = len(all_rows(results)) - len(done)
     if superseded:
         text += (f"\n{superseded} earlier row(s) of rerun cases are in the results file and "
@@ -479,7 +491,8 @@ def main(argv=None) -> int:
             f"{results} --markdown {args.markdown}"
             + (f" --draws-from {args.draws_from}" if args.draws_from is not None else "")
             + (f" --ceiling {args.ceiling}" if args.ceiling else "")
-            + (f" --rates-from {args.rates_from}" if args.rates_from is not None else "")
+            + (" --rates-from " + " ".join(map(str, args.rates_from))
+               if args.rates_from is not None else "")
             + "` (with `--datasets N --first-seed S` for "
             "the draws S to S+N-1 and `--report` to tabulate the rows only) from every row "
             f"in {results}, {args.trials} trials of {args.duration:g} s per command; what "
