@@ -641,8 +641,8 @@ def _run_out_fit(surface, unit: float, realisation: int):
 
 def test_a_random_geometry_is_chosen_again_where_its_fit_ended():
     # fit_cause chose realisation 0 at the coarse grid's best value, where it fits best;
-    # realisation 5 has a deeper minimum 0.12 of the prior above it (run-outs that add up
-    # less need a larger run-out), within the one fine step (0.1) either side the choice
+    # realisation 5 has a deeper minimum 0.12 of the prior above it (wheels at other
+    # phases need a larger run-out), within the one fine step (0.1) either side the choice
     # reads plus Brent's bracket around it: the fit must move to realisation 5 and end
     # within Brent's tolerance (1 % of the prior) of its minimum, its training error the
     # deeper one

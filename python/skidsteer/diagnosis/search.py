@@ -170,8 +170,8 @@ def rechoose_realisation(fit: Fit, held: np.ndarray) -> Fit:
 
     fit_cause chooses at the coarse grid's best value, and a realisation that fits there
     need not fit at the value the search then reaches: a floor with larger bumps on the
-    wheels' path matches the data at a lower RMS height, wheels whose run-outs add up at
-    a smaller run-out, and the search keeps that value."""
+    wheels' path matches the data at a lower RMS height, wheels at other phases tip a
+    turn into shaking at another run-out, and the search keeps that value."""
     cause = cause_registry.get(fit.cause)
     evaluate, main = fit.evaluator, cause.main
     if evaluate is None or fit.realisation is None:
@@ -236,8 +236,8 @@ def over_realisations(evaluate: Evaluations, fit: Fit, bound: float,
     """A random geometry's main interval widened to every value of it that another
     realisation, at the fit's other parameters, fits within `bound` (on the training
     error squared) among the points evaluated: the data tell the value only as well as
-    they tell the realisation (a floor bumpier on the wheels' path, or run-outs that add
-    up, match the data at a smaller value)."""
+    they tell the realisation (a floor bumpier on the wheels' path matches the data at a
+    smaller height; run-outs at other phases shake a turn at another size)."""
     realisations = {r for _, r in evaluate.done} - {fit.realisation}
     values = [value for r in sorted(realisations)
               for value, error in evaluate.profile(fit.main, fit.parameters, r)
